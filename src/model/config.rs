@@ -1,0 +1,341 @@
+//! Warp configurations: the `dexwarp.config/1` file format.
+//!
+//! A config names a demonstration and a scene, and asks for waypoints
+//! `w_j = (p_j, r_j, t_j, t'_j)` (world position, rotation imposed over the segment that ends
+//! at `w_j`, input frame, output frame), barriers (names of scene items with role `barrier`),
+//! and an optional new start and end position of the object (METHOD.md, Inputs).
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Unit, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::json::{self, FieldCheck};
+use super::scene::{Role, Scene};
+use crate::{Error, Limits, Result};
+
+/// The `format` value of a config file.
+pub const CONFIG_FORMAT: &str = "dexwarp.config/1";
+
+/// A rotation stored as axis and angle.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AxisAngleJson {
+    /// Rotation axis (any non-zero length; normalized on load).
+    pub axis: [f64; 3],
+    /// Angle [rad].
+    pub angle: f64,
+}
+
+/// A waypoint as stored.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WaypointJson {
+    /// World position the object origin must pass through [m].
+    pub position: [f64; 3],
+    /// Rotation imposed over the segment ending at this waypoint (identity when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<AxisAngleJson>,
+    /// Input frame at which the object passes `position`.
+    pub t: f64,
+    /// Output frame at which the warped object passes `position`.
+    pub t_new: f64,
+}
+
+/// Barrier push-out mode (METHOD.md, stage 2).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PushoutMode {
+    /// The paper's: convex hull inflated about its centroid, push along the centroid ray.
+    #[default]
+    Paper,
+    /// Exact clearance: the object's bounding ball must clear the barrier's hull.
+    Exact,
+}
+
+/// Tunable parameters of a warp, with the paper's defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WarpParams {
+    /// α: displacement at which the blend is fully linear [m]. Default 0.2.
+    pub alpha_m: f64,
+    /// IK stop threshold on the mean contact distance [mm]. Default 3.5.
+    pub threshold_mm: f64,
+    /// m: barrier margin of the IK barrier term [m]. Default 0.05.
+    pub margin_m: f64,
+    /// n: steepness of the IK barrier term. Default 2.
+    pub steepness: f64,
+    /// Barrier push-out mode. Default `paper`.
+    pub pushout: PushoutMode,
+    /// Step of the barrier push-out along the centroid ray [m]. Default 0.002.
+    pub pushout_step_m: f64,
+    /// Output frame of the end of the contact segment; by default the input's end shifted by
+    /// the last waypoint's time shift.
+    pub end_t_new: Option<f64>,
+}
+
+impl Default for WarpParams {
+    fn default() -> Self {
+        WarpParams {
+            alpha_m: 0.2,
+            threshold_mm: 3.5,
+            margin_m: 0.05,
+            steepness: 2.0,
+            pushout: PushoutMode::Paper,
+            pushout_step_m: 0.002,
+            end_t_new: None,
+        }
+    }
+}
+
+/// A config file exactly as stored.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ConfigFile {
+    pub format: String,
+    pub name: String,
+    /// Demonstration file, relative to the config.
+    pub demo: PathBuf,
+    /// Scene file, relative to the config.
+    pub scene: PathBuf,
+    #[serde(default)]
+    pub waypoints: Vec<WaypointJson>,
+    /// Names of scene items with role `barrier`.
+    #[serde(default)]
+    pub barriers: Vec<String>,
+    /// New start position of the object [m].
+    #[serde(default)]
+    pub start: Option<[f64; 3]>,
+    /// New end position of the object [m].
+    #[serde(default)]
+    pub end: Option<[f64; 3]>,
+    #[serde(default)]
+    pub params: WarpParams,
+}
+
+/// A validated waypoint.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Waypoint {
+    pub position: Vector3<f64>,
+    pub rotation: UnitQuaternion<f64>,
+    /// Input frame.
+    pub t: usize,
+    /// Output frame.
+    pub t_new: usize,
+}
+
+/// A validated config. Paths are resolved against the config file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WarpConfig {
+    pub name: String,
+    pub demo: PathBuf,
+    pub scene: PathBuf,
+    pub waypoints: Vec<Waypoint>,
+    pub barriers: Vec<String>,
+    pub start: Option<Vector3<f64>>,
+    pub end: Option<Vector3<f64>>,
+    pub params: WarpParams,
+    pub source: PathBuf,
+}
+
+impl WarpConfig {
+    /// Reads and validates a config file (the demo and scene are not loaded here).
+    pub fn load(path: &Path, limits: &Limits) -> Result<WarpConfig> {
+        let file: ConfigFile = json::read_json(path, limits)?;
+        WarpConfig::from_file(file, path)
+    }
+
+    /// Validates a parsed config.
+    pub fn from_file(file: ConfigFile, path: &Path) -> Result<WarpConfig> {
+        let c = FieldCheck::new(path);
+        if file.format != CONFIG_FORMAT {
+            return Err(Error::invalid(
+                path,
+                "format",
+                format!(
+                    "is {:?}; expected {CONFIG_FORMAT:?} (is this a warp config?)",
+                    file.format
+                ),
+            ));
+        }
+        let mut waypoints = Vec::with_capacity(file.waypoints.len());
+        for (j, w) in file.waypoints.iter().enumerate() {
+            let position = c.vec3(|| format!("waypoints[{j}].position"), w.position)?;
+            let rotation = match w.rotation {
+                None => UnitQuaternion::identity(),
+                Some(r) => axis_angle(&c, j, r)?,
+            };
+            let t = frame_index(&c, || format!("waypoints[{j}].t"), w.t, "input")?;
+            let t_new = frame_index(&c, || format!("waypoints[{j}].t_new"), w.t_new, "output")?;
+            if let Some(prev) = waypoints.last() {
+                let prev: &Waypoint = prev;
+                if t <= prev.t {
+                    return Err(Error::invalid(
+                        path,
+                        format!("waypoints[{j}].t"),
+                        format!(
+                            "is {t}, not after waypoints[{}].t = {}; waypoints must have strictly increasing t",
+                            j - 1,
+                            prev.t
+                        ),
+                    ));
+                }
+                if t_new <= prev.t_new {
+                    return Err(Error::invalid(
+                        path,
+                        format!("waypoints[{j}].t_new"),
+                        format!(
+                            "is {t_new}, not after waypoints[{}].t_new = {}; waypoints must have strictly increasing t_new",
+                            j - 1,
+                            prev.t_new
+                        ),
+                    ));
+                }
+            }
+            waypoints.push(Waypoint {
+                position,
+                rotation,
+                t,
+                t_new,
+            });
+        }
+        let start = file
+            .start
+            .map(|s| c.vec3(|| "start".into(), s))
+            .transpose()?;
+        let end = file.end.map(|s| c.vec3(|| "end".into(), s)).transpose()?;
+        let p = &file.params;
+        c.positive(|| "params.alpha_m".into(), p.alpha_m, "m")?;
+        c.positive(|| "params.threshold_mm".into(), p.threshold_mm, "mm")?;
+        c.positive(|| "params.margin_m".into(), p.margin_m, "m")?;
+        c.positive(|| "params.steepness".into(), p.steepness, "exponent")?;
+        c.positive(|| "params.pushout_step_m".into(), p.pushout_step_m, "m")?;
+        if let Some(e) = p.end_t_new {
+            frame_index(&c, || "params.end_t_new".into(), e, "output")?;
+        }
+        Ok(WarpConfig {
+            name: file.name,
+            demo: json::resolve_relative(path, &file.demo),
+            scene: json::resolve_relative(path, &file.scene),
+            waypoints,
+            barriers: file.barriers,
+            start,
+            end,
+            params: file.params,
+            source: path.to_path_buf(),
+        })
+    }
+
+    /// Checks that every barrier names a scene item with role `barrier`.
+    pub fn check_scene(&self, scene: &Scene) -> Result<()> {
+        for (j, name) in self.barriers.iter().enumerate() {
+            match scene.item(name) {
+                None => {
+                    return Err(Error::invalid(
+                        &self.source,
+                        format!("barriers[{j}]"),
+                        format!(
+                            "{name:?} is not an item of scene {:?}; barriers there: {}",
+                            scene.name,
+                            scene.names_with_role(Role::Barrier).join(", ")
+                        ),
+                    ));
+                }
+                Some(item) if item.role != Role::Barrier => {
+                    return Err(Error::invalid(
+                        &self.source,
+                        format!("barriers[{j}]"),
+                        format!(
+                            "{name:?} is a {} in scene {:?}, not a barrier; supports are what the object may rest on and are never pushed out of",
+                            item.role.as_str(),
+                            scene.name
+                        ),
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks the waypoint times against a demonstration with `frames` frames whose contact
+    /// segment is `[c0, c1]`: every waypoint must lie strictly inside it.
+    pub fn check_demo(&self, frames: usize, c0: usize, c1: usize) -> Result<()> {
+        for (j, w) in self.waypoints.iter().enumerate() {
+            if w.t >= frames {
+                return Err(Error::invalid(
+                    &self.source,
+                    format!("waypoints[{j}].t"),
+                    format!(
+                        "is {}, outside the demonstration (frames 0..{}); expected a frame inside the contact segment {c0}..{c1}",
+                        w.t,
+                        frames - 1
+                    ),
+                ));
+            }
+            if w.t <= c0 || w.t >= c1 {
+                return Err(Error::invalid(
+                    &self.source,
+                    format!("waypoints[{j}].t"),
+                    format!(
+                        "is {}; expected a frame strictly inside the contact segment {c0}..{c1} (the segment ends are the implicit start and end waypoints)",
+                        w.t
+                    ),
+                ));
+            }
+            if w.t_new <= c0 {
+                return Err(Error::invalid(
+                    &self.source,
+                    format!("waypoints[{j}].t_new"),
+                    format!(
+                        "is {}; expected an output frame after the start of the contact segment ({c0}), which is not retimed",
+                        w.t_new
+                    ),
+                ));
+            }
+        }
+        if let (Some(e), Some(last)) = (self.params.end_t_new, self.waypoints.last())
+            && (e as usize) <= last.t_new
+        {
+            return Err(Error::invalid(
+                &self.source,
+                "params.end_t_new",
+                format!(
+                    "is {e}; expected an output frame after the last waypoint's t_new ({})",
+                    last.t_new
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+fn axis_angle(c: &FieldCheck, j: usize, r: AxisAngleJson) -> Result<UnitQuaternion<f64>> {
+    let axis = c.vec3(|| format!("waypoints[{j}].rotation.axis"), r.axis)?;
+    let angle = c.finite(|| format!("waypoints[{j}].rotation.angle"), r.angle)?;
+    if angle == 0.0 {
+        return Ok(UnitQuaternion::identity());
+    }
+    if axis.norm() < 1e-9 {
+        return Err(Error::invalid(
+            c.path,
+            format!("waypoints[{j}].rotation.axis"),
+            format!("is {:?} with angle {angle}; expected a non-zero axis", r.axis),
+        ));
+    }
+    Ok(UnitQuaternion::from_axis_angle(&Unit::new_normalize(axis), angle))
+}
+
+fn frame_index(
+    c: &FieldCheck,
+    field: impl Fn() -> String,
+    v: f64,
+    which: &str,
+) -> Result<usize> {
+    let v = c.finite(&field, v)?;
+    if v < 0.0 || v.fract() != 0.0 || v > 1e9 {
+        return Err(Error::invalid(
+            c.path,
+            field(),
+            format!("is {v}; expected an {which} frame index (a whole number >= 0)"),
+        ));
+    }
+    Ok(v as usize)
+}

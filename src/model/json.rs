@@ -1,0 +1,309 @@
+//! Reading and writing our JSON files with precise error locations.
+//!
+//! Every loader goes through [`read_json`]: the file size is checked against [`Limits`] before
+//! reading, syntax errors report line and column, and type errors report the JSON path of the
+//! field (`frames[12].contacts[3].link`) through `serde_path_to_error`. Semantic checks (finite
+//! numbers, unit quaternions, consistent lengths) happen afterwards in each format's
+//! `validate`, with the same path style, through [`FieldCheck`].
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use crate::{Error, Limits, Result};
+
+/// How far from unit norm a stored quaternion may be and still be normalized silently.
+/// Datasets store quaternions with 4-7 decimals, which puts the norm within 1e-4 of one;
+/// anything further off is a bug upstream (a zero quaternion, or `[x, y, z, w]` order mixed up
+/// with a non-normalized value) and is refused.
+pub const QUAT_NORM_TOLERANCE: f64 = 1e-3;
+
+/// Reads `path` and deserializes it, checking the size first and naming the failing field.
+pub fn read_json<T: DeserializeOwned>(path: &Path, limits: &Limits) -> Result<T> {
+    let bytes = read_limited(path, limits.max_file_bytes, "--max-file-mb")?;
+    parse_json(path, &bytes)
+}
+
+/// Reads a whole file after checking its size against `limit` bytes.
+pub fn read_limited(path: &Path, limit: u64, flag: &'static str) -> Result<Vec<u8>> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::read(path, e))?;
+    if meta.is_dir() {
+        return Err(Error::invalid(path, "(file)", "is a directory; expected a file"));
+    }
+    if meta.len() > limit {
+        return Err(Error::TooLarge {
+            path: path.to_path_buf(),
+            what: "the file size in bytes",
+            found: meta.len(),
+            limit,
+            flag,
+        });
+    }
+    std::fs::read(path).map_err(|e| Error::read(path, e))
+}
+
+/// Deserializes JSON text, mapping errors to [`Error::Parse`] with a JSON path or a position.
+pub fn parse_json<T: DeserializeOwned>(path: &Path, bytes: &[u8]) -> Result<T> {
+    let de = &mut serde_json::Deserializer::from_slice(bytes);
+    let value: T = serde_path_to_error::deserialize(de).map_err(|err| {
+        let field = err.path().to_string();
+        let inner = err.into_inner();
+        parse_error(path, bytes, field, inner)
+    })?;
+    Ok(value)
+}
+
+fn parse_error(path: &Path, bytes: &[u8], field: String, err: serde_json::Error) -> Error {
+    use serde_json::error::Category;
+    let (line, column) = (err.line(), err.column());
+    match err.classify() {
+        Category::Syntax | Category::Eof | Category::Io => {
+            let mut message = strip_position(&err.to_string());
+            if mentions_non_finite(bytes) {
+                message.push_str(
+                    "; JSON has no NaN or Infinity: write finite numbers (a NaN in the source data must be fixed or the frame dropped)",
+                );
+            }
+            Error::Parse {
+                path: path.to_path_buf(),
+                field: format!("line {line}, column {column}"),
+                message,
+            }
+        }
+        Category::Data => Error::Parse {
+            path: path.to_path_buf(),
+            field: if field == "." {
+                "(top level)".into()
+            } else {
+                field
+            },
+            message: strip_position(&err.to_string()),
+        },
+    }
+}
+
+fn strip_position(message: &str) -> String {
+    match message.find(" at line ") {
+        Some(i) => message[..i].to_string(),
+        None => message.to_string(),
+    }
+}
+
+fn mentions_non_finite(bytes: &[u8]) -> bool {
+    let text = String::from_utf8_lossy(bytes);
+    text.contains("NaN") || text.contains("Infinity")
+}
+
+/// Serializes `value` as pretty JSON to `path` atomically: a temporary file in the same
+/// folder, then a rename, so an interrupted run never leaves a truncated file.
+pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    let mut text = serde_json::to_vec_pretty(value).map_err(|e| Error::Parse {
+        path: path.to_path_buf(),
+        field: "(output)".into(),
+        message: e.to_string(),
+    })?;
+    text.push(b'\n');
+    write_atomic(path, &text)
+}
+
+/// Writes bytes to `path` atomically (temporary file in the same folder, then rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| Error::write(&dir, e))?;
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let tmp = dir.join(format!(".{file_name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::write(path, e));
+    }
+    Ok(())
+}
+
+/// Resolves a path written inside `file` relative to that file's folder.
+pub fn resolve_relative(file: &Path, written: &Path) -> PathBuf {
+    if written.is_absolute() {
+        written.to_path_buf()
+    } else {
+        file.parent().unwrap_or(Path::new(".")).join(written)
+    }
+}
+
+/// Semantic checks on parsed values, each naming the file and the JSON path.
+#[derive(Debug, Clone, Copy)]
+pub struct FieldCheck<'a> {
+    pub path: &'a Path,
+}
+
+impl<'a> FieldCheck<'a> {
+    pub fn new(path: &'a Path) -> Self {
+        FieldCheck { path }
+    }
+
+    /// A finite number.
+    pub fn finite(&self, field: impl FnOnce() -> String, v: f64) -> Result<f64> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(Error::invalid(
+                self.path,
+                field(),
+                format!("is {v}; expected a finite number"),
+            ))
+        }
+    }
+
+    /// A finite number strictly greater than zero.
+    pub fn positive(&self, field: impl FnOnce() -> String, v: f64, unit: &str) -> Result<f64> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(Error::invalid(
+                self.path,
+                field(),
+                format!("is {v}; expected a finite number > 0 ({unit})"),
+            ))
+        }
+    }
+
+    /// A finite number ≥ 0.
+    pub fn non_negative(&self, field: impl FnOnce() -> String, v: f64, unit: &str) -> Result<f64> {
+        if v.is_finite() && v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(Error::invalid(
+                self.path,
+                field(),
+                format!("is {v}; expected a finite number >= 0 ({unit})"),
+            ))
+        }
+    }
+
+    /// A point or vector with three finite coordinates.
+    pub fn vec3(&self, field: impl FnOnce() -> String, v: [f64; 3]) -> Result<Vector3<f64>> {
+        if v.iter().all(|x| x.is_finite()) {
+            Ok(Vector3::from(v))
+        } else {
+            Err(Error::invalid(
+                self.path,
+                field(),
+                format!("is {v:?}; expected three finite numbers (metres)"),
+            ))
+        }
+    }
+
+    /// A point with three finite coordinates.
+    pub fn point3(&self, field: impl FnOnce() -> String, v: [f64; 3]) -> Result<Point3<f64>> {
+        self.vec3(field, v).map(Point3::from)
+    }
+
+    /// A quaternion stored `[w, x, y, z]`, normalized if within [`QUAT_NORM_TOLERANCE`].
+    pub fn quaternion(
+        &self,
+        field: impl FnOnce() -> String,
+        q: [f64; 4],
+    ) -> Result<UnitQuaternion<f64>> {
+        let [w, x, y, z] = q;
+        let quat = Quaternion::new(w, x, y, z);
+        let norm = quat.norm();
+        if !norm.is_finite() || !q.iter().all(|c| c.is_finite()) {
+            return Err(Error::invalid(
+                self.path,
+                field(),
+                format!("is {q:?}; expected four finite numbers [w, x, y, z]"),
+            ));
+        }
+        if norm < 1e-12 {
+            return Err(Error::invalid(
+                self.path,
+                field(),
+                "is the zero quaternion; expected a unit quaternion [w, x, y, z] (identity is [1, 0, 0, 0])",
+            ));
+        }
+        if (norm - 1.0).abs() > QUAT_NORM_TOLERANCE {
+            return Err(Error::invalid(
+                self.path,
+                field(),
+                format!(
+                    "has norm {norm:.6}; expected a unit quaternion [w, x, y, z] (norm within {QUAT_NORM_TOLERANCE} of 1)"
+                ),
+            ));
+        }
+        Ok(UnitQuaternion::from_quaternion(quat))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(serde::Deserialize, Debug)]
+    #[allow(dead_code)]
+    struct Inner {
+        link: String,
+    }
+    #[derive(serde::Deserialize, Debug)]
+    #[allow(dead_code)]
+    struct Outer {
+        frames: Vec<Vec<Inner>>,
+    }
+
+    #[test]
+    fn type_errors_name_the_json_path() {
+        let text = br#"{"frames": [[{"link": "a"}], [{"link": "b"}, {"link": 3}]]}"#;
+        let err = parse_json::<Outer>(Path::new("x.json"), text).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("x.json"), "{msg}");
+        assert!(msg.contains("frames[1][1].link"), "{msg}");
+        assert!(msg.contains("expected a string"), "{msg}");
+    }
+
+    #[test]
+    fn syntax_errors_give_position_and_nan_hint() {
+        let text = b"{\"frames\": [NaN]}";
+        let msg = parse_json::<Outer>(Path::new("x.json"), text)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("line 1, column"), "{msg}");
+        assert!(msg.contains("no NaN"), "{msg}");
+    }
+
+    #[test]
+    fn quaternions_are_normalized_or_refused() {
+        let c = FieldCheck::new(Path::new("d.json"));
+        let q = c.quaternion(|| "q".into(), [1.0005, 0.0, 0.0, 0.0]).unwrap();
+        assert!((q.quaternion().norm() - 1.0).abs() < 1e-12);
+        let zero = c.quaternion(|| "frames[2].object.orientation".into(), [0.0; 4]);
+        let msg = zero.unwrap_err().to_string();
+        assert!(msg.contains("frames[2].object.orientation") && msg.contains("zero quaternion"));
+        let far = c.quaternion(|| "q".into(), [2.0, 0.0, 0.0, 0.0]).unwrap_err();
+        assert!(far.to_string().contains("norm 2.000000"), "{far}");
+    }
+
+    #[test]
+    fn atomic_write_leaves_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("sub/report.json");
+        write_json_atomic(&p, &serde_json::json!({"a": 1})).unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "{\n  \"a\": 1\n}\n");
+        let names: Vec<_> = std::fs::read_dir(p.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+    }
+}

@@ -1,0 +1,3 @@
+//! Synthetic assets and demonstrations: object meshes, and (later) scripted demonstrations.
+
+pub mod objects;
