@@ -16,9 +16,12 @@
 
 pub mod error;
 pub mod geometry;
+pub mod hand;
 pub mod limits;
 pub mod math;
+pub mod metrics;
 pub mod model;
+pub mod pipeline;
 pub mod robot;
 pub mod synth;
 pub mod warp;

@@ -72,5 +72,4 @@ impl Demo {
         self.joint_names = robot.actuated_names();
         Ok(())
     }
-
 }

@@ -51,6 +51,17 @@ pub enum PushoutMode {
     Exact,
 }
 
+/// Timewarp rule of the retiming (METHOD.md, stage 3; see `warp::retime`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RetimeMode {
+    /// Constant speed along each segment between waypoints (the paper).
+    #[default]
+    Chord,
+    /// Keep the demonstration's speed profile, scaled by the stretch of each step.
+    Speed,
+}
+
 /// Tunable parameters of a warp, with the paper's defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -67,6 +78,8 @@ pub struct WarpParams {
     pub pushout: PushoutMode,
     /// Step of the barrier push-out along the centroid ray [m]. Default 0.002.
     pub pushout_step_m: f64,
+    /// Timewarp rule: `chord` (the paper, default) or `speed`.
+    pub retime: RetimeMode,
     /// Output frame of the end of the contact segment; by default the input's end shifted by
     /// the last waypoint's time shift.
     pub end_t_new: Option<f64>,
@@ -81,6 +94,7 @@ impl Default for WarpParams {
             steepness: 2.0,
             pushout: PushoutMode::Paper,
             pushout_step_m: 0.002,
+            retime: RetimeMode::Chord,
             end_t_new: None,
         }
     }
@@ -317,18 +331,19 @@ fn axis_angle(c: &FieldCheck, j: usize, r: AxisAngleJson) -> Result<UnitQuaterni
         return Err(Error::invalid(
             c.path,
             format!("waypoints[{j}].rotation.axis"),
-            format!("is {:?} with angle {angle}; expected a non-zero axis", r.axis),
+            format!(
+                "is {:?} with angle {angle}; expected a non-zero axis",
+                r.axis
+            ),
         ));
     }
-    Ok(UnitQuaternion::from_axis_angle(&Unit::new_normalize(axis), angle))
+    Ok(UnitQuaternion::from_axis_angle(
+        &Unit::new_normalize(axis),
+        angle,
+    ))
 }
 
-fn frame_index(
-    c: &FieldCheck,
-    field: impl Fn() -> String,
-    v: f64,
-    which: &str,
-) -> Result<usize> {
+fn frame_index(c: &FieldCheck, field: impl Fn() -> String, v: f64, which: &str) -> Result<usize> {
     let v = c.finite(&field, v)?;
     if v < 0.0 || v.fract() != 0.0 || v > 1e9 {
         return Err(Error::invalid(

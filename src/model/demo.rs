@@ -173,7 +173,11 @@ impl Demo {
         c.positive(|| "fps".into(), file.fps, "frames per second")?;
         let n = file.frames.len();
         if n == 0 {
-            return Err(Error::invalid(path, "frames", "is empty; expected at least one frame"));
+            return Err(Error::invalid(
+                path,
+                "frames",
+                "is empty; expected at least one frame",
+            ));
         }
         if n as u64 > limits.max_frames {
             return Err(Error::TooLarge {
@@ -335,9 +339,14 @@ fn validate_frame(
     }
     let mut contacts = Vec::with_capacity(f.contacts.len());
     for (k, ct) in f.contacts.into_iter().enumerate() {
-        let hand_point = c.point3(|| format!("frames[{i}].contacts[{k}].hand_point"), ct.hand_point)?;
-        let object_point =
-            c.point3(|| format!("frames[{i}].contacts[{k}].object_point"), ct.object_point)?;
+        let hand_point = c.point3(
+            || format!("frames[{i}].contacts[{k}].hand_point"),
+            ct.hand_point,
+        )?;
+        let object_point = c.point3(
+            || format!("frames[{i}].contacts[{k}].object_point"),
+            ct.object_point,
+        )?;
         if ct.link.is_empty() {
             return Err(Error::invalid(
                 c.path,

@@ -31,7 +31,11 @@ pub fn read_json<T: DeserializeOwned>(path: &Path, limits: &Limits) -> Result<T>
 pub fn read_limited(path: &Path, limit: u64, flag: &'static str) -> Result<Vec<u8>> {
     let meta = std::fs::metadata(path).map_err(|e| Error::read(path, e))?;
     if meta.is_dir() {
-        return Err(Error::invalid(path, "(file)", "is a directory; expected a file"));
+        return Err(Error::invalid(
+            path,
+            "(file)",
+            "is a directory; expected a file",
+        ));
     }
     if meta.len() > limit {
         return Err(Error::TooLarge {
@@ -285,12 +289,16 @@ mod tests {
     #[test]
     fn quaternions_are_normalized_or_refused() {
         let c = FieldCheck::new(Path::new("d.json"));
-        let q = c.quaternion(|| "q".into(), [1.0005, 0.0, 0.0, 0.0]).unwrap();
+        let q = c
+            .quaternion(|| "q".into(), [1.0005, 0.0, 0.0, 0.0])
+            .unwrap();
         assert!((q.quaternion().norm() - 1.0).abs() < 1e-12);
         let zero = c.quaternion(|| "frames[2].object.orientation".into(), [0.0; 4]);
         let msg = zero.unwrap_err().to_string();
         assert!(msg.contains("frames[2].object.orientation") && msg.contains("zero quaternion"));
-        let far = c.quaternion(|| "q".into(), [2.0, 0.0, 0.0, 0.0]).unwrap_err();
+        let far = c
+            .quaternion(|| "q".into(), [2.0, 0.0, 0.0, 0.0])
+            .unwrap_err();
         assert!(far.to_string().contains("norm 2.000000"), "{far}");
     }
 

@@ -4,9 +4,11 @@
 //! with nalgebra types and resolved paths. Loading validates and rejects bad input with the
 //! file, the JSON path of the field and what was expected.
 
+pub mod bind;
 pub mod config;
 pub mod demo;
 pub mod json;
+pub mod report;
 pub mod scene;
 
 pub use config::{WarpConfig, WarpParams, Waypoint};

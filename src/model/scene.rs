@@ -41,12 +41,22 @@ impl Role {
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeJson {
     /// Full edge lengths [m].
-    Box { size: [f64; 3] },
-    Sphere { radius: f64 },
+    Box {
+        size: [f64; 3],
+    },
+    Sphere {
+        radius: f64,
+    },
     /// Axis along local z; `length` is the distance between the two cap centres.
-    Capsule { radius: f64, length: f64 },
+    Capsule {
+        radius: f64,
+        length: f64,
+    },
     /// Axis along local z; `length` is the total height.
-    Cylinder { radius: f64, length: f64 },
+    Cylinder {
+        radius: f64,
+        length: f64,
+    },
     /// OBJ or STL, relative to the scene file, scaled per axis.
     Mesh {
         path: PathBuf,
@@ -120,7 +130,10 @@ impl Scene {
             return Err(Error::invalid(
                 path,
                 "format",
-                format!("is {:?}; expected {SCENE_FORMAT:?} (is this a scene file?)", file.format),
+                format!(
+                    "is {:?}; expected {SCENE_FORMAT:?} (is this a scene file?)",
+                    file.format
+                ),
             ));
         }
         let mut seen = std::collections::HashSet::new();
@@ -134,8 +147,10 @@ impl Scene {
                 ));
             }
             let t = c.vec3(|| format!("items[{k}].pose.position"), it.pose.position)?;
-            let r: UnitQuaternion<f64> =
-                c.quaternion(|| format!("items[{k}].pose.orientation"), it.pose.orientation)?;
+            let r: UnitQuaternion<f64> = c.quaternion(
+                || format!("items[{k}].pose.orientation"),
+                it.pose.orientation,
+            )?;
             let f = |name: &str| format!("items[{k}].shape.{name}");
             let shape = match it.shape {
                 ShapeJson::Box { size } => {

@@ -47,6 +47,94 @@ impl ObjectPath {
 
     /// Polyline length of the positions [m].
     pub fn length(&self) -> f64 {
-        self.positions.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+        self.positions
+            .windows(2)
+            .map(|w| (w[1] - w[0]).norm())
+            .sum()
     }
+}
+
+/// Parameters of the three object stages.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ObjectParams {
+    pub spatial: spatial::Params,
+    pub barrier: barrier::Params,
+    pub retime: retime::Params,
+}
+
+impl ObjectParams {
+    /// The stage parameters a config asks for.
+    pub fn from_config(p: &crate::model::WarpParams) -> Self {
+        ObjectParams {
+            spatial: spatial::Params { alpha_m: p.alpha_m },
+            barrier: barrier::Params {
+                mode: p.pushout,
+                step_m: p.pushout_step_m,
+                ..barrier::Params::default()
+            },
+            retime: retime::Params {
+                mode: p.retime,
+                ..retime::Params::default()
+            },
+        }
+    }
+}
+
+/// Everything the object stages produce: the plan, each stage's output and stats.
+#[derive(Clone, Debug)]
+pub struct ObjectWarp {
+    pub plan: WarpPlan,
+    pub spatial: spatial::Output,
+    pub barrier: barrier::Output,
+    pub retime: retime::Output,
+}
+
+impl ObjectWarp {
+    /// The warped object at every output frame.
+    pub fn path(&self) -> &ObjectPath {
+        &self.retime.path
+    }
+
+    /// The object path after stages 1 and 2, at the input frames (positions pushed out,
+    /// rotations of stage 1): the warped pose of each input frame before retiming.
+    pub fn warped_input(&self) -> ObjectPath {
+        ObjectPath {
+            positions: self.barrier.positions.clone(),
+            rotations: self.spatial.path.rotations.clone(),
+        }
+    }
+}
+
+/// Runs stages 1-3 on the object path `input` (METHOD.md): spatial warp through the anchors,
+/// barrier push-out, retiming. `object_radius` is the bounding radius of the object mesh;
+/// `config_source` names the config in conflict messages.
+pub fn warp_object(
+    input: &ObjectPath,
+    plan: &WarpPlan,
+    barriers: &[barrier::Barrier],
+    object_radius: f64,
+    params: &ObjectParams,
+    config_source: &std::path::Path,
+) -> crate::Result<ObjectWarp> {
+    let spatial = spatial::run(input, plan, &params.spatial);
+    let barrier = barrier::run(
+        &spatial.path.positions,
+        plan,
+        barriers,
+        object_radius,
+        &params.barrier,
+        config_source,
+    )?;
+    let pushed = ObjectPath {
+        positions: barrier.positions.clone(),
+        rotations: spatial.path.rotations.clone(),
+    };
+    let retime = retime::run(&input.positions, &pushed, plan, &params.retime)
+        .map_err(|e| crate::Error::invalid(config_source, "(retiming)", e.to_string()))?;
+    Ok(ObjectWarp {
+        plan: plan.clone(),
+        spatial,
+        barrier,
+        retime,
+    })
 }

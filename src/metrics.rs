@@ -1,0 +1,97 @@
+//! Kinematic quality metrics (METHOD.md "Metrics", paper "Quantitative evaluation").
+//!
+//! * `D_WO`: mean over frames of `|wrist position − object origin|` [mm].
+//! * `D_C`: mean over in-contact frames of the mean correspondence distance
+//!   `|FK(link)·hand_point − O·object_point|` [mm].
+//! * PLR: path length of the warped trajectory over that of the original, for the object
+//!   origin and for the wrist.
+//! * Timewarp discrepancy: see [`crate::warp::retime::Timewarp::discrepancy`].
+
+use nalgebra::Isometry3;
+
+use crate::model::Demo;
+use crate::robot::Robot;
+
+/// `D_WO` of a demonstration [mm].
+pub fn d_wo_mm(demo: &Demo) -> f64 {
+    let n = demo.frames.len().max(1) as f64;
+    demo.frames
+        .iter()
+        .map(|f| (f.wrist.translation.vector - f.object.translation.vector).norm())
+        .sum::<f64>()
+        / n
+        * 1e3
+}
+
+/// Mean correspondence distance of every frame [mm]; `None` for frames without contacts.
+/// The demonstration's joints must be in robot order ([`Demo::check_robot`]).
+pub fn contact_distance_per_frame_mm(robot: &Robot, demo: &Demo) -> Vec<Option<f64>> {
+    let mut poses = robot.new_link_poses();
+    let mut ids = Vec::new();
+    demo.frames
+        .iter()
+        .map(|f| {
+            if f.contacts.is_empty() {
+                return None;
+            }
+            robot.forward_kinematics(&f.wrist, &f.joints, &mut poses);
+            ids.clear();
+            ids.extend(f.contacts.iter().map(|c| robot.link_id(&c.link)));
+            let sum: f64 = f
+                .contacts
+                .iter()
+                .zip(&ids)
+                .map(|(c, id)| match id {
+                    Some(id) => {
+                        let hand = poses[id.index()] * c.hand_point;
+                        let obj = f.object * c.object_point;
+                        (hand - obj).norm()
+                    }
+                    None => f64::NAN,
+                })
+                .sum();
+            Some(sum / f.contacts.len() as f64 * 1e3)
+        })
+        .collect()
+}
+
+/// `D_C` [mm]: the mean of [`contact_distance_per_frame_mm`] over frames with contacts
+/// (0 when there are none).
+pub fn d_c_mm(per_frame: &[Option<f64>]) -> f64 {
+    let (sum, n) = per_frame
+        .iter()
+        .flatten()
+        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    if n == 0 { 0.0 } else { sum / n as f64 }
+}
+
+/// Polyline length of the object origin over all frames [m].
+pub fn object_path_length(demo: &Demo) -> f64 {
+    path_length(demo.frames.iter().map(|f| &f.object))
+}
+
+/// Polyline length of the wrist over all frames [m].
+pub fn wrist_path_length(demo: &Demo) -> f64 {
+    path_length(demo.frames.iter().map(|f| &f.wrist))
+}
+
+fn path_length<'a>(poses: impl Iterator<Item = &'a Isometry3<f64>>) -> f64 {
+    let mut prev: Option<&Isometry3<f64>> = None;
+    let mut total = 0.0;
+    for p in poses {
+        if let Some(q) = prev {
+            total += (p.translation.vector - q.translation.vector).norm();
+        }
+        prev = Some(p);
+    }
+    total
+}
+
+/// `a / b`, or 1 when both are (near) zero, so a still object gives PLR 1, not NaN.
+pub fn ratio(a: f64, b: f64) -> f64 {
+    if b.abs() < 1e-12 {
+        if a.abs() < 1e-12 { 1.0 } else { f64::INFINITY }
+    } else {
+        a / b
+    }
+}

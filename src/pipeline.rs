@@ -1,0 +1,288 @@
+//! The pipeline: one function, one line per stage, in the order of METHOD.md.
+//!
+//! [`warp`] runs, for one config:
+//! 1. spatial warp of the object through the waypoints ([`crate::warp::spatial`]),
+//! 2. barrier push-out of the object ([`crate::warp::barrier`]),
+//! 3. temporal retiming: global C² B-spline and the timewarp τ ([`crate::warp::retime`]),
+//! 4. hand recovery: the SE(3) baseline ([`crate::hand::baseline`]) (contact IK lands next),
+//! 5. smoothing of the hand (with contact IK),
+//! 6. physics replay (lands with the physics stage),
+//! 7. metrics ([`crate::metrics`]),
+//! 8. report ([`crate::model::report`]).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rapier3d_f64::parry::query;
+use rapier3d_f64::parry::shape::SharedShape;
+
+use crate::geometry::Mesh;
+use crate::hand::{HandPath, baseline};
+use crate::math::convert::to_pose;
+use crate::metrics;
+use crate::model::report::{Constraints, ContactDistance, Metrics, Pair, REPORT_FORMAT, Report};
+use crate::model::{Demo, Frame, Scene, WarpConfig};
+use crate::robot::Robot;
+use crate::warp::barrier::{Barrier, item_hull_points};
+use crate::warp::{ObjectParams, ObjectPath, ObjectWarp, WarpPlan, warp_object};
+use crate::{Error, Limits, Result};
+
+/// How the hand is recovered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HandMethod {
+    /// Rigid SE(3) transfer at τ, B-spline in between (the paper's baseline).
+    #[default]
+    Baseline,
+}
+
+impl HandMethod {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            HandMethod::Baseline => "baseline",
+        }
+    }
+}
+
+/// Options of one warp run that are not part of the config.
+#[derive(Clone, Debug, Default)]
+pub struct Options {
+    /// Demonstration to warp instead of the one the config names.
+    pub demo: Option<PathBuf>,
+    /// IK threshold overriding the config's [mm].
+    pub threshold_mm: Option<f64>,
+    pub hand: HandMethod,
+    pub limits: Limits,
+}
+
+/// Everything a warp run produces.
+#[derive(Debug)]
+pub struct WarpRun {
+    /// The output demonstration (with `timewarp`).
+    pub demo: Demo,
+    pub report: Report,
+    pub object: ObjectWarp,
+    pub hand: HandPath,
+}
+
+/// The inputs of a warp, loaded and checked against each other.
+#[derive(Debug)]
+pub struct Inputs {
+    pub config: WarpConfig,
+    pub demo: Demo,
+    pub robot: Robot,
+    pub scene: Scene,
+    pub mesh: Mesh,
+}
+
+impl Inputs {
+    /// Loads the config, its demonstration (or `demo`), robot, scene and object mesh.
+    pub fn load(config: &Path, demo: Option<&Path>, limits: &Limits) -> Result<Inputs> {
+        let config = WarpConfig::load(config, limits)?;
+        let demo_path = demo
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| config.demo.clone());
+        let mut demo = Demo::load(&demo_path, limits)?;
+        let robot = Robot::from_urdf_file(&demo.robot, limits)?;
+        demo.check_robot(&robot)?;
+        let scene = Scene::load(&config.scene, limits)?;
+        config.check_scene(&scene)?;
+        let mesh = Mesh::load(&demo.object.mesh, nalgebra::Vector3::repeat(1.0), limits)?;
+        Ok(Inputs {
+            config,
+            demo,
+            robot,
+            scene,
+            mesh,
+        })
+    }
+}
+
+/// Runs the pipeline on loaded inputs (see the module docs for the stages).
+pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
+    let Inputs {
+        config,
+        demo,
+        robot,
+        scene,
+        mesh,
+    } = inputs;
+    let mut timing = BTreeMap::new();
+    let segment = demo.contact_segment().ok_or_else(|| {
+        Error::invalid(
+            &demo.source,
+            "frames",
+            "no frame has contact correspondences; a warp needs an in-contact segment",
+        )
+    })?;
+    let input = ObjectPath::from_poses(demo.frames.iter().map(|f| &f.object));
+    let plan = WarpPlan::new(config, &input.positions, segment)?;
+    let radius = mesh.bounding_radius();
+    let barriers = prepare_barriers(config, scene, radius, &options.limits)?;
+    let params = ObjectParams::from_config(&config.params);
+
+    // Stages 1-3: spatial warp, barrier push-out, retiming.
+    let object = warp_object(&input, &plan, &barriers, radius, &params, &config.source)?;
+    timing.insert("spatial".into(), object.spatial.stats.time_s);
+    timing.insert("barrier".into(), object.barrier.stats.time_s);
+    timing.insert("retime".into(), object.retime.stats.time_s);
+
+    // Stage 4: hand recovery.
+    let clock = Instant::now();
+    let hand = match options.hand {
+        HandMethod::Baseline => baseline::run(demo, &object)
+            .map_err(|e| Error::invalid(&config.source, "(hand)", e.to_string()))?,
+    };
+    timing.insert("hand".into(), clock.elapsed().as_secs_f64());
+
+    // Stages 7-8: metrics and report.
+    let clock = Instant::now();
+    let out = assemble(demo, &object, &hand, &config.name);
+    let threshold = options.threshold_mm.unwrap_or(config.params.threshold_mm);
+    let mut report = report(demo, &out, robot, &object, &barriers, mesh)?;
+    report.config = Some(config.source.display().to_string());
+    report.threshold_mm = Some(threshold);
+    report.hand = Some(options.hand.as_str().into());
+    timing.insert("metrics".into(), clock.elapsed().as_secs_f64());
+    report.timing_s = timing;
+    Ok(WarpRun {
+        demo: out,
+        report,
+        object,
+        hand,
+    })
+}
+
+/// The barriers a config names, prepared for the push-out.
+pub fn prepare_barriers(
+    config: &WarpConfig,
+    scene: &Scene,
+    radius: f64,
+    limits: &Limits,
+) -> Result<Vec<Barrier>> {
+    config
+        .barriers
+        .iter()
+        .enumerate()
+        .map(|(j, name)| {
+            let item = scene.item(name).expect("checked by check_scene");
+            let pts = item_hull_points(item, limits)?;
+            Barrier::from_points(name, &pts, radius).ok_or_else(|| {
+                Error::invalid(
+                    &scene.source,
+                    format!("items[{name:?}]"),
+                    format!(
+                        "barriers[{j}] has a flat or degenerate convex hull; give it a thickness"
+                    ),
+                )
+            })
+        })
+        .collect()
+}
+
+/// The output demonstration: warped object, recovered hand, contacts of `t*` (the last input
+/// frame mapped at or before each output frame), and the timewarp.
+pub fn assemble(demo: &Demo, object: &ObjectWarp, hand: &HandPath, name: &str) -> Demo {
+    let plan = &object.plan;
+    let (c0, c1) = (plan.segment.start, plan.segment.end);
+    let tw = &object.retime.timewarp;
+    let path = object.path();
+    let post_shift = plan.post_shift();
+    let frames = (0..plan.frames_out())
+        .map(|t| {
+            let src = if t < c0 {
+                t
+            } else if t <= plan.t_end_new() {
+                tw.source_frame(t as f64).clamp(c0, c1)
+            } else {
+                (t as i64 - post_shift) as usize
+            };
+            Frame {
+                object: path.pose(t),
+                wrist: hand.wrists[t],
+                joints: hand.q(t).to_vec(),
+                contacts: demo.frames[src].contacts.clone(),
+            }
+        })
+        .collect();
+    Demo {
+        name: name.to_string(),
+        fps: demo.fps,
+        robot: demo.robot.clone(),
+        object: demo.object.clone(),
+        joint_names: demo.joint_names.clone(),
+        frames,
+        timewarp: Some(tw.tau.clone()),
+        source: demo.source.clone(),
+    }
+}
+
+fn report(
+    original: &Demo,
+    out: &Demo,
+    robot: &Robot,
+    object: &ObjectWarp,
+    barriers: &[Barrier],
+    mesh: &Mesh,
+) -> Result<Report> {
+    let dc_orig = metrics::d_c_mm(&metrics::contact_distance_per_frame_mm(robot, original));
+    let dc_out = metrics::d_c_mm(&metrics::contact_distance_per_frame_mm(robot, out));
+    let plan = &object.plan;
+    let min_clearance = if barriers.is_empty() {
+        None
+    } else {
+        let hull = mesh.convex_hull();
+        hull.map(|h| min_clearance_mm(&h, object.path(), barriers))
+    };
+    Ok(Report {
+        format: REPORT_FORMAT.into(),
+        name: out.name.clone(),
+        frames_in: original.frames.len(),
+        frames_out: out.frames.len(),
+        metrics: Metrics {
+            d_wo_mm: Pair {
+                original: metrics::d_wo_mm(original),
+                warped: metrics::d_wo_mm(out),
+            },
+            d_c_mm: ContactDistance {
+                original: dc_orig,
+                unsmoothed: dc_out,
+                warped: dc_out,
+            },
+            plr_object: metrics::ratio(
+                metrics::object_path_length(out),
+                metrics::object_path_length(original),
+            ),
+            plr_hand: metrics::ratio(
+                metrics::wrist_path_length(out),
+                metrics::wrist_path_length(original),
+            ),
+            timewarp_discrepancy: object.retime.timewarp.discrepancy(),
+        },
+        constraints: Constraints {
+            max_waypoint_error_mm: object.retime.stats.max_anchor_error_m * 1e3,
+            min_object_barrier_clearance_mm: min_clearance,
+            object_radius_mm: object.barrier.stats.object_radius_m * 1e3,
+            pushout_frames_moved: object.barrier.stats.frames_moved,
+            narrow_gap: object.barrier.stats.narrow_gap.clone(),
+            contact_gap_frames: plan.segment.gap_frames,
+        },
+        ..Report::default()
+    })
+}
+
+/// Smallest distance between the object's hull and any barrier hull over the output frames.
+fn min_clearance_mm(hull: &SharedShape, path: &ObjectPath, barriers: &[Barrier]) -> f64 {
+    let identity = rapier3d_f64::parry::math::Pose::IDENTITY;
+    let mut best = f64::INFINITY;
+    for i in 0..path.len() {
+        let pose = to_pose(&path.pose(i));
+        for b in barriers {
+            if let Ok(d) = query::distance(&pose, hull.as_ref(), &identity, b.hull()) {
+                best = best.min(d.distance);
+            }
+        }
+    }
+    best * 1e3
+}

@@ -1,0 +1,19 @@
+//! URDF hands: the kinematic tree, forward kinematics, point Jacobians, collision geometry.
+//!
+//! - [`model`]: [`Robot`], [`Link`], [`Joint`] in arenas with typed ids; configuration
+//!   `(wrist, q)` with mimic joints folded into their drivers.
+//! - [`urdf`]: loading and checking a URDF file ([`Robot::from_urdf_file`]).
+//! - [`kinematics`]: allocation-free [`Robot::forward_kinematics`] and
+//!   [`Robot::point_jacobian`] with the wrist parameterisation `R' = exp([δω]×) R`.
+//! - [`shape`]: collision shapes as parry shapes, and deterministic surface points.
+//! - [`describe`]: the text of `dexwarp robot URDF`.
+
+pub mod describe;
+pub mod kinematics;
+pub mod model;
+pub mod shape;
+pub mod urdf;
+
+pub use kinematics::{WRIST_DOF, apply_wrist_step};
+pub use model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};
+pub use shape::{CollisionShape, ShapeKind, SurfaceSampling};

@@ -1,0 +1,465 @@
+//! Loading a [`Robot`] from URDF (urdf-rs 0.10) and checking it.
+//!
+//! The loader turns the URDF element lists into arenas and establishes the invariants of
+//! [`super::model`]: one root, a tree (each link has at most one parent joint, no cycle),
+//! joints in topological order, finite origins, unit axes, `lower ≤ upper`, mimic chains
+//! resolved to actuated drivers, collision shapes built and their surfaces sampled.
+//!
+//! Every error names the URDF file, the element (`joint 'index_pip' <limit>`,
+//! `link 'palm' collision[1]`) and what was expected. Floating, planar and spherical joints
+//! are refused: dexwarp adds the floating wrist itself in front of the root link.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
+
+use super::model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};
+use super::shape::{CollisionShape, ShapeKind, SurfaceSampling};
+use crate::error::{Error, Result};
+use crate::geometry::Mesh;
+use crate::limits::Limits;
+
+impl Robot {
+    /// Loads a URDF file; mesh paths resolve relative to the file's folder. Surfaces are
+    /// sampled with [`SurfaceSampling::default`] (8 mm).
+    ///
+    /// The file size is checked against `limits.max_file_bytes` before it is read.
+    pub fn from_urdf_file(path: &Path, limits: &Limits) -> Result<Robot> {
+        let meta = std::fs::metadata(path).map_err(|e| Error::read(path, e))?;
+        if meta.len() > limits.max_file_bytes {
+            return Err(Error::TooLarge {
+                path: path.to_path_buf(),
+                what: "the URDF file size in bytes",
+                found: meta.len(),
+                limit: limits.max_file_bytes,
+                flag: "--max-file-mb",
+            });
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Robot::from_urdf_str(&text, base, path, limits)
+    }
+
+    /// Loads a URDF document from a string. Relative mesh paths resolve against `base_dir`;
+    /// `source` names the document in error messages and is stored in [`Robot::source`].
+    pub fn from_urdf_str(
+        text: &str,
+        base_dir: &Path,
+        source: &Path,
+        limits: &Limits,
+    ) -> Result<Robot> {
+        if text.len() as u64 > limits.max_file_bytes {
+            return Err(Error::TooLarge {
+                path: source.to_path_buf(),
+                what: "the URDF text size in bytes",
+                found: text.len() as u64,
+                limit: limits.max_file_bytes,
+                flag: "--max-file-mb",
+            });
+        }
+        let urdf = urdf_rs::read_from_string(text).map_err(|e| Error::Parse {
+            path: source.to_path_buf(),
+            field: "URDF".into(),
+            message: format!("not a valid URDF document: {e}"),
+        })?;
+        Loader {
+            path: source,
+            base_dir,
+            limits,
+            mesh_cache: HashMap::new(),
+        }
+        .build(urdf)
+    }
+
+    /// Recomputes every link's surface points and normals with `sampling` (see
+    /// [`super::shape`] for the layout on each primitive).
+    ///
+    /// Where shapes of one link overlap, points buried more than
+    /// [`BURIED_DEPTH`](super::shape::BURIED_DEPTH) inside another shape of the same link are
+    /// dropped: they can never touch anything.
+    pub fn sample_surface_points(&mut self, sampling: &SurfaceSampling) {
+        let mut points = Vec::new();
+        let mut normals = Vec::new();
+        for link in &mut self.links {
+            link.surface_points.clear();
+            link.surface_normals.clear();
+            for (k, shape) in link.collision.iter().enumerate() {
+                points.clear();
+                normals.clear();
+                shape.sample_surface(sampling, &mut points, &mut normals);
+                for (p, n) in points.iter().zip(&normals) {
+                    let buried =
+                        link.collision.iter().enumerate().any(|(o, other)| {
+                            o != k && other.depth_of(p) > super::shape::BURIED_DEPTH
+                        });
+                    if !buried {
+                        link.surface_points.push(*p);
+                        link.surface_normals.push(*n);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// State of one load: where messages point and meshes already read.
+struct Loader<'a> {
+    path: &'a Path,
+    base_dir: &'a Path,
+    limits: &'a Limits,
+    /// Meshes by resolved path, unscaled: a mesh used by several links is read once.
+    mesh_cache: HashMap<PathBuf, Arc<Mesh>>,
+}
+
+impl Loader<'_> {
+    fn invalid(&self, field: impl Into<String>, message: impl Into<String>) -> Error {
+        Error::invalid(self.path, field, message)
+    }
+
+    fn build(mut self, urdf: urdf_rs::Robot) -> Result<Robot> {
+        for (what, n) in [
+            ("the number of links", urdf.links.len()),
+            ("the number of joints", urdf.joints.len()),
+        ] {
+            if n as u64 > self.limits.max_links {
+                return Err(Error::TooLarge {
+                    path: self.path.to_path_buf(),
+                    what,
+                    found: n as u64,
+                    limit: self.limits.max_links,
+                    flag: "--max-links",
+                });
+            }
+        }
+        if urdf.links.is_empty() {
+            return Err(self.invalid("robot", "the URDF has no <link>; expected at least one"));
+        }
+
+        // Links by name, each named once.
+        let mut link_index: HashMap<&str, usize> = HashMap::new();
+        for (i, l) in urdf.links.iter().enumerate() {
+            if link_index.insert(l.name.as_str(), i).is_some() {
+                return Err(self.invalid(
+                    format!("link '{}'", l.name),
+                    "two links have this name; link names must be unique",
+                ));
+            }
+        }
+
+        // Joints: kind, endpoints, one parent per link.
+        let mut joint_index: HashMap<&str, usize> = HashMap::new();
+        let mut parent_of: Vec<Option<usize>> = vec![None; urdf.links.len()];
+        let mut ends = Vec::with_capacity(urdf.joints.len());
+        for (i, j) in urdf.joints.iter().enumerate() {
+            let field = format!("joint '{}'", j.name);
+            if joint_index.insert(j.name.as_str(), i).is_some() {
+                return Err(self.invalid(
+                    field,
+                    "two joints have this name; joint names must be unique",
+                ));
+            }
+            kind_of(j).map_err(|t| {
+                Error::unsupported(
+                    self.path,
+                    &field,
+                    format!(
+                        "type=\"{t}\" is not supported inside the hand; dexwarp adds the floating \
+                         wrist itself, so make the root the palm and use fixed, revolute, \
+                         continuous or prismatic joints"
+                    ),
+                )
+            })?;
+            let find = |role: &str, name: &str| {
+                link_index.get(name).copied().ok_or_else(|| {
+                    self.invalid(
+                        format!("{field} <{role} link=\"{name}\">"),
+                        format!("no link is named '{name}'; expected one of the <link> names"),
+                    )
+                })
+            };
+            let parent = find("parent", &j.parent.link)?;
+            let child = find("child", &j.child.link)?;
+            if parent == child {
+                return Err(self.invalid(
+                    field,
+                    format!("parent and child are the same link '{}'", j.child.link),
+                ));
+            }
+            if let Some(other) = parent_of[child] {
+                return Err(self.invalid(
+                    field,
+                    format!(
+                        "link '{}' is already the child of joint '{}'; a link has at most one \
+                         parent joint (the URDF must be a tree)",
+                        j.child.link, urdf.joints[other].name
+                    ),
+                ));
+            }
+            parent_of[child] = Some(i);
+            ends.push((parent, child));
+        }
+
+        // The root: the only link without a parent joint.
+        let roots: Vec<usize> = (0..urdf.links.len())
+            .filter(|&l| parent_of[l].is_none())
+            .collect();
+        let root = match roots.as_slice() {
+            [r] => *r,
+            [] => {
+                return Err(self.invalid(
+                    "robot",
+                    "every link has a parent joint, so the joints form a cycle; expected one \
+                     root link (the palm)",
+                ));
+            }
+            many => {
+                let names: Vec<String> = many
+                    .iter()
+                    .map(|&l| format!("'{}'", urdf.links[l].name))
+                    .collect();
+                return Err(self.invalid(
+                    "robot",
+                    format!(
+                        "more than one root link ({}); expected a single tree: connect the \
+                         extra links with fixed joints or remove them",
+                        names.join(", ")
+                    ),
+                ));
+            }
+        };
+
+        // Topological order, stable with respect to the URDF order.
+        let mut placed = vec![false; urdf.links.len()];
+        placed[root] = true;
+        let mut order: Vec<usize> = Vec::with_capacity(urdf.joints.len());
+        let mut done = vec![false; urdf.joints.len()];
+        loop {
+            let before = order.len();
+            for (i, &(parent, child)) in ends.iter().enumerate() {
+                if !done[i] && placed[parent] {
+                    done[i] = true;
+                    placed[child] = true;
+                    order.push(i);
+                }
+            }
+            if order.len() == urdf.joints.len() {
+                break;
+            }
+            if order.len() == before {
+                let cyc: Vec<String> = (0..urdf.joints.len())
+                    .filter(|&i| !done[i])
+                    .map(|i| format!("'{}'", urdf.joints[i].name))
+                    .collect();
+                return Err(self.invalid(
+                    "robot",
+                    format!(
+                        "the joints {} form a cycle not connected to root link '{}'; expected a tree",
+                        cyc.join(", "),
+                        urdf.links[root].name
+                    ),
+                ));
+            }
+        }
+        let new_id: Vec<usize> = {
+            let mut v = vec![0; urdf.joints.len()];
+            for (new, &old) in order.iter().enumerate() {
+                v[old] = new;
+            }
+            v
+        };
+
+        // Joint geometry and limits.
+        let mut joints = Vec::with_capacity(order.len());
+        for &old in &order {
+            let j = &urdf.joints[old];
+            let field = format!("joint '{}'", j.name);
+            let kind = kind_of(j).expect("checked above");
+            let origin = self.pose(&j.origin, &field)?;
+            let axis = if kind.is_movable() {
+                let a = Vector3::from(j.axis.xyz.0);
+                if !a.iter().all(|c| c.is_finite()) {
+                    return Err(self.invalid(
+                        format!("{field} <axis>"),
+                        format!(
+                            "xyz {:?} is not finite; expected a unit vector",
+                            j.axis.xyz.0
+                        ),
+                    ));
+                }
+                Unit::try_new(a, 1e-9).ok_or_else(|| {
+                    self.invalid(
+                        format!("{field} <axis>"),
+                        "xyz is the zero vector; expected a non-zero axis such as \"0 0 1\"",
+                    )
+                })?
+            } else {
+                Vector3::x_axis()
+            };
+            let limits = match kind {
+                JointKind::Revolute | JointKind::Prismatic => {
+                    let (lo, hi) = (j.limit.lower, j.limit.upper);
+                    if lo.is_nan() || hi.is_nan() {
+                        return Err(self.invalid(
+                            format!("{field} <limit>"),
+                            "lower or upper is NaN; expected numbers",
+                        ));
+                    }
+                    if lo > hi {
+                        return Err(self.invalid(
+                            format!("{field} <limit>"),
+                            format!(
+                                "lower {lo} is greater than upper {hi}; expected lower <= upper"
+                            ),
+                        ));
+                    }
+                    Some((lo, hi))
+                }
+                _ => None,
+            };
+            let (parent, child) = ends[old];
+            joints.push(Joint {
+                name: j.name.clone(),
+                kind,
+                parent: LinkId(parent as u32),
+                child: LinkId(child as u32),
+                origin,
+                axis,
+                limits,
+                mimic: None,
+                dof: None,
+                mimic_source: j.mimic.as_ref().map(|m| m.joint.clone()),
+            });
+        }
+
+        // Actuated joints: movable, not mimic, in URDF order.
+        let mut actuated = Vec::new();
+        let mut lower = Vec::new();
+        let mut upper = Vec::new();
+        for (old, j) in urdf.joints.iter().enumerate() {
+            let joint = &mut joints[new_id[old]];
+            if joint.kind.is_movable() && j.mimic.is_none() {
+                joint.dof = Some(actuated.len());
+                actuated.push(JointId(new_id[old] as u32));
+                let (lo, hi) = joint.limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+                lower.push(lo);
+                upper.push(hi);
+            }
+        }
+
+        // Mimics, resolved to their ultimate actuated driver.
+        for (old, j) in urdf.joints.iter().enumerate() {
+            let Some(m) = &j.mimic else { continue };
+            let field = format!("joint '{}' <mimic joint=\"{}\">", j.name, m.joint);
+            if !joints[new_id[old]].kind.is_movable() {
+                return Err(self.invalid(
+                    field,
+                    "a fixed joint cannot mimic another joint; remove <mimic> or make the joint movable",
+                ));
+            }
+            let (mut mult, mut off) = (m.multiplier.unwrap_or(1.0), m.offset.unwrap_or(0.0));
+            if !mult.is_finite() || !off.is_finite() {
+                return Err(self.invalid(field, "multiplier and offset must be finite numbers"));
+            }
+            let mut target = m.joint.as_str();
+            let mut hops = 0;
+            let driver = loop {
+                let Some(&t) = joint_index.get(target) else {
+                    return Err(self.invalid(
+                        field,
+                        format!(
+                            "no joint is named '{target}'; expected the name of a movable joint"
+                        ),
+                    ));
+                };
+                let tj = &joints[new_id[t]];
+                if !tj.kind.is_movable() {
+                    return Err(self.invalid(
+                        field,
+                        format!("joint '{target}' is fixed and cannot drive a mimic joint"),
+                    ));
+                }
+                if let Some(d) = tj.dof {
+                    break d;
+                }
+                // `target` is itself a mimic: θ_t = m' θ_next + c', so θ = m m' θ_next + m c' + c.
+                hops += 1;
+                let next = urdf.joints[t]
+                    .mimic
+                    .as_ref()
+                    .expect("movable non-actuated joint");
+                if hops > urdf.joints.len() {
+                    return Err(self.invalid(
+                        field,
+                        "the mimic relations form a cycle; expected every mimic chain to end at a \
+                         joint without <mimic>",
+                    ));
+                }
+                let (m2, c2) = (next.multiplier.unwrap_or(1.0), next.offset.unwrap_or(0.0));
+                off += mult * c2;
+                mult *= m2;
+                target = next.joint.as_str();
+            };
+            joints[new_id[old]].mimic = Some(Mimic {
+                driver,
+                multiplier: mult,
+                offset: off,
+            });
+        }
+
+        // Links and their collision geometry.
+        let mut links = Vec::with_capacity(urdf.links.len());
+        for (i, l) in urdf.links.iter().enumerate() {
+            let mut collision = Vec::with_capacity(l.collision.len());
+            for (k, c) in l.collision.iter().enumerate() {
+                let field = format!("link '{}' collision[{k}]", l.name);
+                collision.push(self.collision(c, &field)?);
+            }
+            links.push(Link {
+                name: l.name.clone(),
+                parent_joint: parent_of[i].map(|j| JointId(new_id[j] as u32)),
+                collision,
+                surface_points: Vec::new(),
+                surface_normals: Vec::new(),
+            });
+        }
+
+        // Chains of movable joints from the root, filled in topological order.
+        let mut chains: Vec<Vec<JointId>> = vec![Vec::new(); links.len()];
+        for (id, joint) in joints.iter().enumerate() {
+            let mut chain = chains[joint.parent.index()].clone();
+            if joint.kind.is_movable() {
+                chain.push(JointId(id as u32));
+            }
+            chains[joint.child.index()] = chain;
+        }
+
+        let mut robot = Robot {
+            name: urdf.name,
+            source: self.path.to_path_buf(),
+            links,
+            joints,
+            root: LinkId(root as u32),
+            actuated,
+            chains: chains.into_iter().map(Vec::into_boxed_slice).collect(),
+            lower,
+            upper,
+        };
+        robot.sample_surface_points(&SurfaceSampling::default());
+        Ok(robot)
+    }
+}
+
+/// The joint kind, or the URDF type name when it is not supported inside the tree.
+fn kind_of(j: &urdf_rs::Joint) -> std::result::Result<JointKind, &'static str> {
+    match j.joint_type {
+        urdf_rs::JointType::Fixed => Ok(JointKind::Fixed),
+        urdf_rs::JointType::Revolute => Ok(JointKind::Revolute),
+        urdf_rs::JointType::Continuous => Ok(JointKind::Continuous),
+        urdf_rs::JointType::Prismatic => Ok(JointKind::Prismatic),
+        urdf_rs::JointType::Floating => Err("floating"),
+        urdf_rs::JointType::Planar => Err("planar"),
+        urdf_rs::JointType::Spherical => Err("spherical"),
+    }
+}
