@@ -258,6 +258,7 @@ impl VertexMerger {
     }
 }
 
+/// The [`Error::TooLarge`] for a mesh over `limits.max_mesh_triangles`.
 fn too_many_triangles(path: &Path, found: u64, limits: &Limits) -> Error {
     Error::TooLarge {
         path: path.to_path_buf(),
@@ -268,6 +269,11 @@ fn too_many_triangles(path: &Path, found: u64, limits: &Limits) -> Error {
     }
 }
 
+/// Reads an OBJ with tobj: `v` positions (f32 in tobj, widened to f64), polygonal `f`
+/// faces fan-triangulated, points and lines ignored, materials ignored (`mtllib` files are
+/// not opened). Every object/group becomes part of one mesh; equal positions are merged so
+/// that closedness is judged across groups. The triangle count is checked after parsing
+/// (the file size bounds it beforehand: each `f` line takes at least 6 bytes).
 fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
     // `..Default::default()` covers the fields behind tobj's optional features.
@@ -317,6 +323,13 @@ fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
     Ok(merger.mesh)
 }
 
+/// Reads an STL with stl_io; vertices are merged bit-exactly by stl_io's indexing.
+///
+/// Binary or ASCII is decided from the size, not from the first bytes: a file is binary
+/// exactly when its size is `84 + 50 n` with `n` the header's triangle count (many binary
+/// files start their header with `solid`, which fools a text probe). Otherwise it must start
+/// with `solid` to be read as ASCII.
+///
 /// Binary STL layout: 80-byte header, `u32` little-endian triangle count, then 50 bytes
 /// per triangle (normal, three vertices as `f32`, 2 attribute bytes).
 fn read_stl(path: &Path, size: u64, limits: &Limits) -> Result<Mesh> {

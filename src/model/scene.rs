@@ -222,3 +222,45 @@ impl Scene {
             .collect()
     }
 }
+
+impl Scene {
+    /// An item as a collision shape in the world frame (the same representation as a robot
+    /// link's collision geometry, so physics and the IK barrier term treat both alike).
+    pub fn collision_shape(
+        &self,
+        item: &SceneItem,
+        limits: &Limits,
+    ) -> Result<crate::robot::CollisionShape> {
+        use crate::robot::ShapeKind;
+        let kind = match &item.shape {
+            ShapeJson::Box { size } => ShapeKind::Box {
+                size: nalgebra::Vector3::from(*size),
+            },
+            ShapeJson::Sphere { radius } => ShapeKind::Sphere { radius: *radius },
+            ShapeJson::Capsule { radius, length } => ShapeKind::Capsule {
+                radius: *radius,
+                length: *length,
+            },
+            ShapeJson::Cylinder { radius, length } => ShapeKind::Cylinder {
+                radius: *radius,
+                length: *length,
+            },
+            ShapeJson::Mesh { path, scale } => {
+                let scale = nalgebra::Vector3::from(*scale);
+                let mesh = crate::geometry::Mesh::load(path, scale, limits)?;
+                ShapeKind::Mesh {
+                    path: path.clone(),
+                    scale,
+                    mesh: std::sync::Arc::new(mesh),
+                }
+            }
+        };
+        crate::robot::CollisionShape::new(kind, item.pose).ok_or_else(|| {
+            Error::invalid(
+                &self.source,
+                format!("items[{:?}].shape", item.name),
+                "the mesh has no triangles; expected a closed triangle mesh",
+            )
+        })
+    }
+}

@@ -1,5 +1,16 @@
-//! The text printed by `dexwarp robot URDF`: a summary, the joint table and each link's
-//! collision shapes (`impl Display for Robot`).
+//! The text printed by `dexwarp robot URDF` (`impl Display for Robot`).
+//!
+//! Three parts, made for a reader checking a hand before using it:
+//! 1. a summary: name and file, counts of links and of each joint type, the DoF (the 6 of
+//!    the floating wrist that dexwarp adds, plus the actuated joints), the root link and the
+//!    number of surface points;
+//! 2. the joint table in tree order: the index in `q` (`-` for fixed and mimic joints),
+//!    name, type, `parent -> child`, limits in rad or m, and the mimic relation resolved to
+//!    its driver (`= 0.4 * j1 - 0.15 (via 'j2')` when declared through another mimic);
+//! 3. per link: its collision shapes with dimensions in millimetres and their origin
+//!    (`xyz` in mm, `rpy` in degrees, omitted when identity), and its surface points.
+//!
+//! Columns are sized to their content so that the table stays aligned for any name length.
 
 use std::fmt::{self, Display};
 
@@ -156,6 +167,10 @@ impl Display for Robot {
         writeln!(f)?;
         writeln!(f, "links (collision shapes in the link frame):")?;
         for l in &self.links {
+            if l.collision.is_empty() {
+                writeln!(f, "  {}: no collision geometry", l.name)?;
+                continue;
+            }
             writeln!(
                 f,
                 "  {}: {} shape{}, {} surface points",
@@ -172,6 +187,7 @@ impl Display for Robot {
     }
 }
 
+/// One collision shape: the dimensions, then the origin when it is not the identity.
 fn shape_line(c: &CollisionShape) -> String {
     format!("{}{}", c.describe(), pose(&c.origin))
 }

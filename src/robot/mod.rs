@@ -2,7 +2,8 @@
 //!
 //! - [`model`]: [`Robot`], [`Link`], [`Joint`] in arenas with typed ids; configuration
 //!   `(wrist, q)` with mimic joints folded into their drivers.
-//! - [`urdf`]: loading and checking a URDF file ([`Robot::from_urdf_file`]).
+//! - [`urdf`]: loading and checking a URDF file ([`Robot::from_urdf_file`]); its geometry
+//!   half (`<origin>`, `<collision>`, mesh paths) lives in the private `urdf_geometry`.
 //! - [`kinematics`]: allocation-free [`Robot::forward_kinematics`] and
 //!   [`Robot::point_jacobian`] with the wrist parameterisation `R' = exp([δω]×) R`.
 //! - [`shape`]: collision shapes as parry shapes, and deterministic surface points.
@@ -13,6 +14,7 @@ pub mod kinematics;
 pub mod model;
 pub mod shape;
 pub mod urdf;
+mod urdf_geometry;
 
 pub use kinematics::{WRIST_DOF, apply_wrist_step};
 pub use model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};

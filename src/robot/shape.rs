@@ -198,6 +198,7 @@ impl Default for SurfaceSampling {
 /// link, is dropped (0.5 mm: points on touching faces are kept).
 pub const BURIED_DEPTH: f64 = 5e-4;
 
+/// A surface point and its outward unit normal, in the shape's own frame.
 type Sample = (Point3<f64>, Vector3<f64>);
 
 /// Samples `kind` in its own frame, honouring the per-shape cap.
@@ -232,6 +233,9 @@ fn intervals(len: f64, h: f64) -> usize {
     ((len / h).ceil() as usize).clamp(1, 1 << 16)
 }
 
+/// Box of full edge lengths `size`, centred: the lattice `(i, j, k)` with `⌈size/h⌉`
+/// intervals per axis, keeping the points with an index at either end (on a face). Edge
+/// and corner normals are the normalised sums of the adjacent face normals.
 fn sample_box(size: Vector3<f64>, h: f64, out: &mut Vec<Sample>) {
     let half = size / 2.0;
     let n = [
@@ -263,6 +267,7 @@ fn sample_box(size: Vector3<f64>, h: f64, out: &mut Vec<Sample>) {
     }
 }
 
+/// Sphere: `⌈4πr²/h²⌉` Fibonacci points (area per point ≈ h²), normals radial.
 fn sample_sphere(radius: f64, h: f64, out: &mut Vec<Sample>) {
     let n = ((4.0 * PI * radius * radius / (h * h)).ceil() as usize).clamp(1, 1 << 20);
     fibonacci_sphere(n, |dir| out.push((Point3::from(dir * radius), dir)));
@@ -295,6 +300,9 @@ fn ring(r: f64, z: f64, h: f64, out: &mut Vec<Sample>, normal: impl Fn(f64, f64)
     }
 }
 
+/// Cylinder along `z`: side rings at `⌈L/h⌉ + 1` heights including both rims, each with
+/// `⌈2πr/h⌉` points; each cap gets concentric rings at radii `r k/⌈r/h⌉`, `k < ⌈r/h⌉`
+/// (a single centre point for `k = 0`).
 fn sample_cylinder(radius: f64, length: f64, h: f64, out: &mut Vec<Sample>) {
     let half = length / 2.0;
     let rings = intervals(length, h);
@@ -312,6 +320,9 @@ fn sample_cylinder(radius: f64, length: f64, h: f64, out: &mut Vec<Sample>) {
     }
 }
 
+/// Capsule along `z` (segment from `-L/2` to `L/2`, radius `r`): side rings as for the
+/// cylinder, then on each hemisphere latitude rings at `φ_k = (π/2) k / ⌈(π/2) r / h⌉`,
+/// `k ≥ 1`, ending in one pole point. Normals are radial from the nearest segment point.
 fn sample_capsule(radius: f64, length: f64, h: f64, out: &mut Vec<Sample>) {
     let half = length / 2.0;
     let rings = if length > 0.0 {

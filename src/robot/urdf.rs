@@ -13,10 +13,10 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
+use nalgebra::{Unit, Vector3};
 
 use super::model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};
-use super::shape::{CollisionShape, ShapeKind, SurfaceSampling};
+use super::shape::SurfaceSampling;
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
 use crate::limits::Limits;
@@ -105,20 +105,69 @@ impl Robot {
 }
 
 /// State of one load: where messages point and meshes already read.
-struct Loader<'a> {
-    path: &'a Path,
-    base_dir: &'a Path,
-    limits: &'a Limits,
+pub(super) struct Loader<'a> {
+    /// The URDF file, named in every error.
+    pub(super) path: &'a Path,
+    /// Folder that relative mesh paths start from.
+    pub(super) base_dir: &'a Path,
+    pub(super) limits: &'a Limits,
     /// Meshes by resolved path, unscaled: a mesh used by several links is read once.
-    mesh_cache: HashMap<PathBuf, Arc<Mesh>>,
+    pub(super) mesh_cache: HashMap<PathBuf, Arc<Mesh>>,
+}
+
+/// The kinematic tree as read from URDF, indices in URDF order.
+struct Tree {
+    /// URDF joint index by name.
+    joint_index: HashMap<String, usize>,
+    /// `(parent link, child link)` of each URDF joint.
+    ends: Vec<(usize, usize)>,
+    /// URDF joint index whose child each link is.
+    parent_of: Vec<Option<usize>>,
+    /// The root link.
+    root: usize,
 }
 
 impl Loader<'_> {
-    fn invalid(&self, field: impl Into<String>, message: impl Into<String>) -> Error {
+    /// An [`Error::Invalid`] for this URDF file.
+    pub(super) fn invalid(&self, field: impl Into<String>, message: impl Into<String>) -> Error {
         Error::invalid(self.path, field, message)
     }
 
+    /// The loader's stages, in order; each returns the first problem it finds.
     fn build(mut self, urdf: urdf_rs::Robot) -> Result<Robot> {
+        self.check_sizes(&urdf)?;
+        let tree = self.tree(&urdf)?;
+        let order = self.topological_order(&urdf, &tree)?;
+        // new_id[urdf index] = JointId (position in topological order).
+        let mut new_id = vec![0; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_id[old] = new;
+        }
+        let mut joints = order
+            .iter()
+            .map(|&old| self.joint(&urdf.joints[old], tree.ends[old]))
+            .collect::<Result<Vec<_>>>()?;
+        let (actuated, lower, upper) = assign_dofs(&urdf, &new_id, &mut joints);
+        self.resolve_mimics(&urdf, &tree, &new_id, &mut joints)?;
+        let links = self.links(&urdf, &tree, &new_id)?;
+        let chains = chains(&joints, links.len());
+        let mut robot = Robot {
+            name: urdf.name,
+            source: self.path.to_path_buf(),
+            links,
+            joints,
+            root: LinkId(tree.root as u32),
+            actuated,
+            chains,
+            lower,
+            upper,
+        };
+        robot.sample_surface_points(&SurfaceSampling::default());
+        Ok(robot)
+    }
+
+    /// Refuses robots over `limits.max_links` links or joints, and robots without links.
+    fn check_sizes(&self, urdf: &urdf_rs::Robot) -> Result<()> {
         for (what, n) in [
             ("the number of links", urdf.links.len()),
             ("the number of joints", urdf.joints.len()),
@@ -136,8 +185,12 @@ impl Loader<'_> {
         if urdf.links.is_empty() {
             return Err(self.invalid("robot", "the URDF has no <link>; expected at least one"));
         }
+        Ok(())
+    }
 
-        // Links by name, each named once.
+    /// Names are unique, joint types supported, joint ends known and distinct, every link
+    /// the child of at most one joint, and exactly one link (the root) the child of none.
+    fn tree(&self, urdf: &urdf_rs::Robot) -> Result<Tree> {
         let mut link_index: HashMap<&str, usize> = HashMap::new();
         for (i, l) in urdf.links.iter().enumerate() {
             if link_index.insert(l.name.as_str(), i).is_some() {
@@ -147,14 +200,12 @@ impl Loader<'_> {
                 ));
             }
         }
-
-        // Joints: kind, endpoints, one parent per link.
-        let mut joint_index: HashMap<&str, usize> = HashMap::new();
+        let mut joint_index = HashMap::new();
         let mut parent_of: Vec<Option<usize>> = vec![None; urdf.links.len()];
         let mut ends = Vec::with_capacity(urdf.joints.len());
         for (i, j) in urdf.joints.iter().enumerate() {
             let field = format!("joint '{}'", j.name);
-            if joint_index.insert(j.name.as_str(), i).is_some() {
+            if joint_index.insert(j.name.clone(), i).is_some() {
                 return Err(self.invalid(
                     field,
                     "two joints have this name; joint names must be unique",
@@ -200,8 +251,6 @@ impl Loader<'_> {
             parent_of[child] = Some(i);
             ends.push((parent, child));
         }
-
-        // The root: the only link without a parent joint.
         let roots: Vec<usize> = (0..urdf.links.len())
             .filter(|&l| parent_of[l].is_none())
             .collect();
@@ -229,26 +278,34 @@ impl Loader<'_> {
                 ));
             }
         };
+        Ok(Tree {
+            joint_index,
+            ends,
+            parent_of,
+            root,
+        })
+    }
 
-        // Topological order, stable with respect to the URDF order.
+    /// URDF joint indices in an order where every joint's parent link is the root or the
+    /// child of an earlier joint; ties keep the URDF order. With one parent per link and one
+    /// root, joints that can never be placed form a cycle detached from the root.
+    fn topological_order(&self, urdf: &urdf_rs::Robot, tree: &Tree) -> Result<Vec<usize>> {
+        let n = tree.ends.len();
         let mut placed = vec![false; urdf.links.len()];
-        placed[root] = true;
-        let mut order: Vec<usize> = Vec::with_capacity(urdf.joints.len());
-        let mut done = vec![false; urdf.joints.len()];
-        loop {
+        placed[tree.root] = true;
+        let mut done = vec![false; n];
+        let mut order = Vec::with_capacity(n);
+        while order.len() < n {
             let before = order.len();
-            for (i, &(parent, child)) in ends.iter().enumerate() {
+            for (i, &(parent, child)) in tree.ends.iter().enumerate() {
                 if !done[i] && placed[parent] {
                     done[i] = true;
                     placed[child] = true;
                     order.push(i);
                 }
             }
-            if order.len() == urdf.joints.len() {
-                break;
-            }
             if order.len() == before {
-                let cyc: Vec<String> = (0..urdf.joints.len())
+                let cycle: Vec<String> = (0..n)
                     .filter(|&i| !done[i])
                     .map(|i| format!("'{}'", urdf.joints[i].name))
                     .collect();
@@ -256,99 +313,86 @@ impl Loader<'_> {
                     "robot",
                     format!(
                         "the joints {} form a cycle not connected to root link '{}'; expected a tree",
-                        cyc.join(", "),
-                        urdf.links[root].name
+                        cycle.join(", "),
+                        urdf.links[tree.root].name
                     ),
                 ));
             }
         }
-        let new_id: Vec<usize> = {
-            let mut v = vec![0; urdf.joints.len()];
-            for (new, &old) in order.iter().enumerate() {
-                v[old] = new;
-            }
-            v
-        };
+        Ok(order)
+    }
 
-        // Joint geometry and limits.
-        let mut joints = Vec::with_capacity(order.len());
-        for &old in &order {
-            let j = &urdf.joints[old];
-            let field = format!("joint '{}'", j.name);
-            let kind = kind_of(j).expect("checked above");
-            let origin = self.pose(&j.origin, &field)?;
-            let axis = if kind.is_movable() {
-                let a = Vector3::from(j.axis.xyz.0);
-                if !a.iter().all(|c| c.is_finite()) {
+    /// One joint: origin finite, axis finite and non-zero for movable joints (normalised),
+    /// limits not NaN with `lower ≤ upper` for revolute and prismatic joints. URDF files
+    /// before 1.2 without `<limit>` read as `[0, 0]` (a locked joint, accepted).
+    fn joint(&self, j: &urdf_rs::Joint, (parent, child): (usize, usize)) -> Result<Joint> {
+        let field = format!("joint '{}'", j.name);
+        let kind = kind_of(j).expect("checked by tree()");
+        let origin = self.pose(&j.origin, &field)?;
+        let axis = if kind.is_movable() {
+            let a = Vector3::from(j.axis.xyz.0);
+            if !a.iter().all(|c| c.is_finite()) {
+                return Err(self.invalid(
+                    format!("{field} <axis>"),
+                    format!(
+                        "xyz {:?} is not finite; expected a unit vector",
+                        j.axis.xyz.0
+                    ),
+                ));
+            }
+            Unit::try_new(a, 1e-9).ok_or_else(|| {
+                self.invalid(
+                    format!("{field} <axis>"),
+                    "xyz is the zero vector; expected a non-zero axis such as \"0 0 1\"",
+                )
+            })?
+        } else {
+            Vector3::x_axis()
+        };
+        let limits = match kind {
+            JointKind::Revolute | JointKind::Prismatic => {
+                let (lo, hi) = (j.limit.lower, j.limit.upper);
+                if lo.is_nan() || hi.is_nan() {
                     return Err(self.invalid(
-                        format!("{field} <axis>"),
-                        format!(
-                            "xyz {:?} is not finite; expected a unit vector",
-                            j.axis.xyz.0
-                        ),
+                        format!("{field} <limit>"),
+                        "lower or upper is NaN; expected numbers",
                     ));
                 }
-                Unit::try_new(a, 1e-9).ok_or_else(|| {
-                    self.invalid(
-                        format!("{field} <axis>"),
-                        "xyz is the zero vector; expected a non-zero axis such as \"0 0 1\"",
-                    )
-                })?
-            } else {
-                Vector3::x_axis()
-            };
-            let limits = match kind {
-                JointKind::Revolute | JointKind::Prismatic => {
-                    let (lo, hi) = (j.limit.lower, j.limit.upper);
-                    if lo.is_nan() || hi.is_nan() {
-                        return Err(self.invalid(
-                            format!("{field} <limit>"),
-                            "lower or upper is NaN; expected numbers",
-                        ));
-                    }
-                    if lo > hi {
-                        return Err(self.invalid(
-                            format!("{field} <limit>"),
-                            format!(
-                                "lower {lo} is greater than upper {hi}; expected lower <= upper"
-                            ),
-                        ));
-                    }
-                    Some((lo, hi))
+                if lo > hi {
+                    return Err(self.invalid(
+                        format!("{field} <limit>"),
+                        format!("lower {lo} is greater than upper {hi}; expected lower <= upper"),
+                    ));
                 }
-                _ => None,
-            };
-            let (parent, child) = ends[old];
-            joints.push(Joint {
-                name: j.name.clone(),
-                kind,
-                parent: LinkId(parent as u32),
-                child: LinkId(child as u32),
-                origin,
-                axis,
-                limits,
-                mimic: None,
-                dof: None,
-                mimic_source: j.mimic.as_ref().map(|m| m.joint.clone()),
-            });
-        }
-
-        // Actuated joints: movable, not mimic, in URDF order.
-        let mut actuated = Vec::new();
-        let mut lower = Vec::new();
-        let mut upper = Vec::new();
-        for (old, j) in urdf.joints.iter().enumerate() {
-            let joint = &mut joints[new_id[old]];
-            if joint.kind.is_movable() && j.mimic.is_none() {
-                joint.dof = Some(actuated.len());
-                actuated.push(JointId(new_id[old] as u32));
-                let (lo, hi) = joint.limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
-                lower.push(lo);
-                upper.push(hi);
+                Some((lo, hi))
             }
-        }
+            _ => None,
+        };
+        Ok(Joint {
+            name: j.name.clone(),
+            kind,
+            parent: LinkId(parent as u32),
+            child: LinkId(child as u32),
+            origin,
+            axis,
+            limits,
+            mimic: None,
+            dof: None,
+            mimic_source: j.mimic.as_ref().map(|m| m.joint.clone()),
+        })
+    }
 
-        // Mimics, resolved to their ultimate actuated driver.
+    /// Resolves each `<mimic>` to its ultimate actuated driver. Along a chain
+    /// `θ = m₁ θ₁ + c₁`, `θ₁ = m₂ θ₂ + c₂`, … the maps compose as
+    /// `θ = (m₁ m₂) θ₂ + (m₁ c₂ + c₁)`. Refuses a mimic on a fixed joint, of an unknown or
+    /// fixed joint, non-finite coefficients, and cycles (a chain longer than the joint count).
+    fn resolve_mimics(
+        &self,
+        urdf: &urdf_rs::Robot,
+        tree: &Tree,
+        new_id: &[usize],
+        joints: &mut [Joint],
+    ) -> Result<()> {
         for (old, j) in urdf.joints.iter().enumerate() {
             let Some(m) = &j.mimic else { continue };
             let field = format!("joint '{}' <mimic joint=\"{}\">", j.name, m.joint);
@@ -359,13 +403,13 @@ impl Loader<'_> {
                 ));
             }
             let (mut mult, mut off) = (m.multiplier.unwrap_or(1.0), m.offset.unwrap_or(0.0));
-            if !mult.is_finite() || !off.is_finite() {
-                return Err(self.invalid(field, "multiplier and offset must be finite numbers"));
-            }
             let mut target = m.joint.as_str();
             let mut hops = 0;
             let driver = loop {
-                let Some(&t) = joint_index.get(target) else {
+                if !mult.is_finite() || !off.is_finite() {
+                    return Err(self.invalid(field, "multiplier and offset must be finite numbers"));
+                }
+                let Some(&t) = tree.joint_index.get(target) else {
                     return Err(self.invalid(
                         field,
                         format!(
@@ -383,12 +427,7 @@ impl Loader<'_> {
                 if let Some(d) = tj.dof {
                     break d;
                 }
-                // `target` is itself a mimic: θ_t = m' θ_next + c', so θ = m m' θ_next + m c' + c.
                 hops += 1;
-                let next = urdf.joints[t]
-                    .mimic
-                    .as_ref()
-                    .expect("movable non-actuated joint");
                 if hops > urdf.joints.len() {
                     return Err(self.invalid(
                         field,
@@ -396,6 +435,10 @@ impl Loader<'_> {
                          joint without <mimic>",
                     ));
                 }
+                let next = urdf.joints[t]
+                    .mimic
+                    .as_ref()
+                    .expect("movable non-actuated joint");
                 let (m2, c2) = (next.multiplier.unwrap_or(1.0), next.offset.unwrap_or(0.0));
                 off += mult * c2;
                 mult *= m2;
@@ -407,8 +450,11 @@ impl Loader<'_> {
                 offset: off,
             });
         }
+        Ok(())
+    }
 
-        // Links and their collision geometry.
+    /// Links with their collision shapes (surface points are sampled afterwards).
+    fn links(&mut self, urdf: &urdf_rs::Robot, tree: &Tree, new_id: &[usize]) -> Result<Vec<Link>> {
         let mut links = Vec::with_capacity(urdf.links.len());
         for (i, l) in urdf.links.iter().enumerate() {
             let mut collision = Vec::with_capacity(l.collision.len());
@@ -418,37 +464,52 @@ impl Loader<'_> {
             }
             links.push(Link {
                 name: l.name.clone(),
-                parent_joint: parent_of[i].map(|j| JointId(new_id[j] as u32)),
+                parent_joint: tree.parent_of[i].map(|j| JointId(new_id[j] as u32)),
                 collision,
                 surface_points: Vec::new(),
                 surface_normals: Vec::new(),
             });
         }
-
-        // Chains of movable joints from the root, filled in topological order.
-        let mut chains: Vec<Vec<JointId>> = vec![Vec::new(); links.len()];
-        for (id, joint) in joints.iter().enumerate() {
-            let mut chain = chains[joint.parent.index()].clone();
-            if joint.kind.is_movable() {
-                chain.push(JointId(id as u32));
-            }
-            chains[joint.child.index()] = chain;
-        }
-
-        let mut robot = Robot {
-            name: urdf.name,
-            source: self.path.to_path_buf(),
-            links,
-            joints,
-            root: LinkId(root as u32),
-            actuated,
-            chains: chains.into_iter().map(Vec::into_boxed_slice).collect(),
-            lower,
-            upper,
-        };
-        robot.sample_surface_points(&SurfaceSampling::default());
-        Ok(robot)
+        Ok(links)
     }
+}
+
+/// Numbers the actuated joints (movable, not mimic) in URDF declaration order, which is
+/// the order users see in `q` and in demo `joint_names`; returns them with their limits
+/// (`±inf` for continuous joints).
+fn assign_dofs(
+    urdf: &urdf_rs::Robot,
+    new_id: &[usize],
+    joints: &mut [Joint],
+) -> (Vec<JointId>, Vec<f64>, Vec<f64>) {
+    let mut actuated = Vec::new();
+    let mut lower = Vec::new();
+    let mut upper = Vec::new();
+    for (old, j) in urdf.joints.iter().enumerate() {
+        let joint = &mut joints[new_id[old]];
+        if joint.kind.is_movable() && j.mimic.is_none() {
+            joint.dof = Some(actuated.len());
+            actuated.push(JointId(new_id[old] as u32));
+            let (lo, hi) = joint.limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+            lower.push(lo);
+            upper.push(hi);
+        }
+    }
+    (actuated, lower, upper)
+}
+
+/// Per link, the movable joints from the root to the link, root first. One pass in
+/// topological order: a child's chain is its parent's plus its own joint when movable.
+fn chains(joints: &[Joint], link_count: usize) -> Vec<Box<[JointId]>> {
+    let mut chains: Vec<Vec<JointId>> = vec![Vec::new(); link_count];
+    for (id, joint) in joints.iter().enumerate() {
+        let mut chain = chains[joint.parent.index()].clone();
+        if joint.kind.is_movable() {
+            chain.push(JointId(id as u32));
+        }
+        chains[joint.child.index()] = chain;
+    }
+    chains.into_iter().map(Vec::into_boxed_slice).collect()
 }
 
 /// The joint kind, or the URDF type name when it is not supported inside the tree.

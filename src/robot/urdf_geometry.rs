@@ -31,7 +31,15 @@ impl Loader<'_> {
         ))
     }
 
-    pub(super) fn collision(&mut self, c: &urdf_rs::Collision, field: &str) -> Result<CollisionShape> {
+    /// One `<collision>` element as a [`CollisionShape`] in the link frame. `field` names the
+    /// element in errors (`link 'palm' collision[1]`). Dimensions must be finite and
+    /// positive (a capsule's straight `length` may be 0: a sphere). A mesh is read once,
+    /// scaled per axis, and re-wound outward when closed (a mirroring scale flips it).
+    pub(super) fn collision(
+        &mut self,
+        c: &urdf_rs::Collision,
+        field: &str,
+    ) -> Result<CollisionShape> {
         let origin = self.pose(&c.origin, field)?;
         let positive = |what: &str, v: f64, allow_zero: bool| {
             if v.is_finite() && (v > 0.0 || (allow_zero && v == 0.0)) {
@@ -133,6 +141,9 @@ impl Loader<'_> {
             })
     }
 
+    /// Reads a mesh file (unscaled) through the per-load cache. Mesh errors are re-issued
+    /// against the URDF file and element, keeping their kind (a size limit stays
+    /// [`Error::TooLarge`] naming the mesh file and the flag that raises it).
     pub(super) fn load_mesh(&mut self, path: &Path, field: &str) -> Result<Arc<Mesh>> {
         if let Some(m) = self.mesh_cache.get(path) {
             return Ok(m.clone());

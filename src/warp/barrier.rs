@@ -147,7 +147,7 @@ impl Barrier {
             .zip(&offsets)
             .map(|(n, d)| d - n.dot(&centroid.coords))
             .fold(f64::INFINITY, f64::min);
-        if !(rho > 1e-9) {
+        if rho.is_nan() || rho <= 1e-9 {
             return None;
         }
         let scale = 1.0 + object_radius / rho;

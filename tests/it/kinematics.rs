@@ -308,6 +308,13 @@ fn jacobian_robots() -> Vec<Robot> {
 fn shipped_robots_load_if_present() {
     let robots = jacobian_robots();
     for r in &robots {
+        eprintln!(
+            "{}: {} links, {} DoF, {} surface points",
+            r.name,
+            r.link_count(),
+            r.dof(),
+            r.surface_point_count()
+        );
         assert!(r.dof() > 0, "{}", r.name);
         assert_eq!(
             r.surface_point_count() > 0,
@@ -668,4 +675,22 @@ fn meshes_load_relative_to_the_urdf_with_package_and_file_prefixes() {
     let missing =
         Robot::from_urdf_file(&dir.path().join("none.urdf"), &Limits::default()).unwrap_err();
     assert!(missing.to_string().contains("none.urdf"));
+}
+
+#[test]
+fn truncated_or_mangled_urdf_never_panics() {
+    // Every prefix (in steps) and a few byte substitutions: an error or a robot, no panic.
+    for end in (0..MIMIC_HAND.len()).step_by(23) {
+        if MIMIC_HAND.is_char_boundary(end) {
+            let _ = load(&MIMIC_HAND[..end]);
+        }
+    }
+    for (from, to) in [
+        ("0.8", "x"),
+        ("\"0 1 0\"", "\"0 1\""),
+        ("revolute", "bogus"),
+        ("<limit", "<limt"),
+    ] {
+        let _ = load(&MIMIC_HAND.replacen(from, to, 1));
+    }
 }

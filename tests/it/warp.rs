@@ -182,7 +182,7 @@ fn orientation_is_continuous_at_waypoints() {
     let mut j = base_json();
     j["waypoints"] = serde_json::json!([
         {"position": [0.2, 0.0, 1.1], "t": 120, "t_new": 120,
-         "rotation": {"axis": [0, 0, 1], "angle": 1.5707963}},
+         "rotation": {"axis": [0, 0, 1], "angle": std::f64::consts::FRAC_PI_2}},
         {"position": [0.4, 0.0, 1.0], "t": 200, "t_new": 200,
          "rotation": {"axis": [1, 0, 0], "angle": -0.6}}
     ]);
@@ -199,7 +199,7 @@ fn orientation_is_continuous_at_waypoints() {
     );
     // After the last waypoint the full cumulative rotation holds.
     let input = demo_path();
-    let c = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 1.5707963)
+    let c = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2)
         * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -0.6);
     let want = c * input.rotations[SEG.end];
     let got = path.rotations[out.plan.t_end_new()];
