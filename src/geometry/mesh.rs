@@ -121,7 +121,7 @@ impl Mesh {
         Ok(())
     }
 
-    /// Largest distance of a vertex from the mesh origin [m]; `0` for an empty mesh.
+    /// Largest distance of a vertex from the mesh origin \[m\]; `0` for an empty mesh.
     pub fn bounding_radius(&self) -> f64 {
         self.vertices
             .iter()
@@ -130,7 +130,7 @@ impl Mesh {
             .sqrt()
     }
 
-    /// Sum of the triangle areas [m²].
+    /// Sum of the triangle areas \[m²\].
     pub fn surface_area(&self) -> f64 {
         self.triangles
             .iter()
@@ -141,7 +141,7 @@ impl Mesh {
             .sum()
     }
 
-    /// Signed volume `Σ a · (b × c) / 6` [m³]: the enclosed volume for a closed,
+    /// Signed volume `Σ a · (b × c) / 6` \[m³\]: the enclosed volume for a closed,
     /// outward-wound mesh, its negative for an inward-wound one.
     pub fn signed_volume(&self) -> f64 {
         self.triangles

@@ -30,10 +30,9 @@ pub struct PoseJson {
 
 impl PoseJson {
     pub fn from_isometry(iso: &Isometry3<f64>) -> Self {
-        let q = iso.rotation.quaternion();
         PoseJson {
             position: iso.translation.vector.into(),
-            orientation: [q.w, q.i, q.j, q.k],
+            orientation: crate::math::rotation::quat_to_wxyz(&iso.rotation),
         }
     }
 }

@@ -9,17 +9,14 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Point3, UnitQuaternion, Vector3};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
+use crate::math::rotation::{self, RotationError};
 use crate::{Error, Limits, Result};
 
-/// How far from unit norm a stored quaternion may be and still be normalized silently.
-/// Datasets store quaternions with 4-7 decimals, which puts the norm within 1e-4 of one;
-/// anything further off is a bug upstream (a zero quaternion, or `[x, y, z, w]` order mixed up
-/// with a non-normalized value) and is refused.
-pub const QUAT_NORM_TOLERANCE: f64 = 1e-3;
+pub use crate::math::rotation::QUAT_NORM_TOLERANCE;
 
 /// Reads `path` and deserializes it, checking the size first and naming the failing field.
 pub fn read_json<T: DeserializeOwned>(path: &Path, limits: &Limits) -> Result<T> {
@@ -215,39 +212,25 @@ impl<'a> FieldCheck<'a> {
         self.vec3(field, v).map(Point3::from)
     }
 
-    /// A quaternion stored `[w, x, y, z]`, normalized if within [`QUAT_NORM_TOLERANCE`].
+    /// A quaternion stored `[w, x, y, z]`, normalized if its norm is within
+    /// [`QUAT_NORM_TOLERANCE`] of 1 (the rule of [`rotation::quat_from_wxyz`]).
     pub fn quaternion(
         &self,
         field: impl FnOnce() -> String,
         q: [f64; 4],
     ) -> Result<UnitQuaternion<f64>> {
-        let [w, x, y, z] = q;
-        let quat = Quaternion::new(w, x, y, z);
-        let norm = quat.norm();
-        if !norm.is_finite() || !q.iter().all(|c| c.is_finite()) {
-            return Err(Error::invalid(
-                self.path,
-                field(),
-                format!("is {q:?}; expected four finite numbers [w, x, y, z]"),
-            ));
-        }
-        if norm < 1e-12 {
-            return Err(Error::invalid(
-                self.path,
-                field(),
-                "is the zero quaternion; expected a unit quaternion [w, x, y, z] (identity is [1, 0, 0, 0])",
-            ));
-        }
-        if (norm - 1.0).abs() > QUAT_NORM_TOLERANCE {
-            return Err(Error::invalid(
-                self.path,
-                field(),
-                format!(
+        rotation::quat_from_wxyz(q).map_err(|e| {
+            let message = match e {
+                RotationError::NotUnit { norm, .. } if norm < 1e-12 => {
+                    "is the zero quaternion; expected a unit quaternion [w, x, y, z] (identity is [1, 0, 0, 0])".to_string()
+                }
+                RotationError::NotUnit { norm, .. } => format!(
                     "has norm {norm:.6}; expected a unit quaternion [w, x, y, z] (norm within {QUAT_NORM_TOLERANCE} of 1)"
                 ),
-            ));
-        }
-        Ok(UnitQuaternion::from_quaternion(quat))
+                _ => format!("is {q:?}; expected four finite numbers [w, x, y, z]"),
+            };
+            Error::invalid(self.path, field(), message)
+        })
     }
 }
 

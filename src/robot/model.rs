@@ -66,11 +66,11 @@ pub struct Link {
 pub enum JointKind {
     /// No motion.
     Fixed,
-    /// Rotation about `axis` by `θ` [rad], within limits.
+    /// Rotation about `axis` by `θ` \[rad\], within limits.
     Revolute,
-    /// Rotation about `axis` by `θ` [rad], unlimited.
+    /// Rotation about `axis` by `θ` \[rad\], unlimited.
     Continuous,
-    /// Translation along `axis` by `d` [m], within limits.
+    /// Translation along `axis` by `d` \[m\], within limits.
     Prismatic,
 }
 
@@ -122,7 +122,7 @@ pub struct Joint {
     pub origin: Isometry3<f64>,
     /// Unit motion axis in the joint frame (URDF `<axis>`; `x` for fixed joints).
     pub axis: Unit<Vector3<f64>>,
-    /// `(lower, upper)` for revolute [rad] and prismatic [m] joints; `None` for fixed and
+    /// `(lower, upper)` for revolute \[rad\] and prismatic \[m\] joints; `None` for fixed and
     /// continuous joints. Infinite bounds mean "no limit" (URDF 1.2).
     pub limits: Option<(f64, f64)>,
     /// Mimic relation, resolved to an actuated driver.
@@ -246,12 +246,12 @@ impl Robot {
             .collect()
     }
 
-    /// Lower limits of `q` [rad or m]; `-inf` for continuous joints.
+    /// Lower limits of `q` \[rad or m\]; `-inf` for continuous joints.
     pub fn lower(&self) -> &[f64] {
         &self.lower
     }
 
-    /// Upper limits of `q` [rad or m]; `+inf` for continuous joints.
+    /// Upper limits of `q` \[rad or m\]; `+inf` for continuous joints.
     pub fn upper(&self) -> &[f64] {
         &self.upper
     }

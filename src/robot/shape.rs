@@ -151,7 +151,7 @@ impl CollisionShape {
         }
     }
 
-    /// Penetration depth of the link-frame point `p` into this shape [m]: positive inside,
+    /// Penetration depth of the link-frame point `p` into this shape \[m\]: positive inside,
     /// `≤ 0` outside (for a mesh, meaningful only when it is closed and outward-wound).
     pub fn depth_of(&self, p: &Point3<f64>) -> f64 {
         let pose = crate::math::convert::to_pose(&self.shape_pose);
@@ -179,7 +179,7 @@ impl CollisionShape {
 /// How densely link surfaces are sampled (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceSampling {
-    /// Target distance between neighbouring points [m]; default 0.008.
+    /// Target distance between neighbouring points \[m\]; default 0.008.
     pub spacing: f64,
     /// Most points on one collision shape; default 600.
     pub max_per_shape: usize,
@@ -194,7 +194,7 @@ impl Default for SurfaceSampling {
     }
 }
 
-/// Depth [m] beyond which a surface point of one shape, inside another shape of the same
+/// Depth \[m\] beyond which a surface point of one shape, inside another shape of the same
 /// link, is dropped (0.5 mm: points on touching faces are kept).
 pub const BURIED_DEPTH: f64 = 5e-4;
 
