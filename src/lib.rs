@@ -14,14 +14,18 @@
 //! data model and its JSON formats, [`robot`] URDF hands and their kinematics, [`geometry`]
 //! meshes and shape queries.
 
+pub mod batch;
 pub mod error;
+pub mod filter;
 pub mod geometry;
 pub mod hand;
 pub mod limits;
 pub mod math;
 pub mod metrics;
 pub mod model;
+pub mod output;
 pub mod pipeline;
+pub mod physics;
 pub mod robot;
 pub mod synth;
 pub mod warp;

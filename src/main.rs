@@ -3,12 +3,12 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use dexwarp::Limits;
-use dexwarp::model::json::write_json_atomic;
+use dexwarp::hand::ik::Solver;
 use dexwarp::pipeline::{self, HandMethod, Inputs, Options};
 use dexwarp::robot::Robot;
+use dexwarp::{Limits, batch, filter};
 
 /// Warp one dexterous-manipulation demonstration into many.
 ///
@@ -79,7 +79,7 @@ enum Command {
     },
     /// Warp one demonstration with one config; writes DIR/<name>.demo.json and DIR/report.json.
     #[command(
-        after_help = "Examples:\n  dexwarp warp --config scenes/configs/mug_pass_wall.json --out out/mug\n  dexwarp warp --config my.json --demo my.demo.json --out out/x --hand baseline"
+        after_help = "Examples:\n  dexwarp warp --config scenes/configs/mug_pass_wall.json --out out/mug\n  dexwarp warp --config my.json --demo my.demo.json --out out/x --hand baseline\n  dexwarp warp --config scenes/configs/teapot_pour_cups.json --out out/t --threshold-mm 5 --solver adam"
     )]
     Warp {
         /// Warp config (`dexwarp.config/1`).
@@ -95,15 +95,96 @@ enum Command {
         #[arg(long, value_name = "MM", value_parser = positive_mm)]
         threshold_mm: Option<f64>,
         /// How the hand is recovered.
-        #[arg(long, value_enum, default_value_t = HandArg::Baseline)]
+        #[arg(long, value_enum, default_value_t = HandArg::Contact)]
         hand: HandArg,
+        /// IK solver for contact IK: lm (fast, default) or adam (the paper's).
+        #[arg(long, value_enum, default_value_t = SolverArg::Lm)]
+        solver: SolverArg,
+    },
+    /// Run many (demo, config) items of a manifest in parallel; a failed item is recorded and
+    /// the rest go on.
+    #[command(
+        after_help = "The manifest is JSON Lines, one item per line (paths relative to it):\n  {\"config\": \"scenes/configs/mug_pass_wall.json\", \"threshold_mm\": 5}\n  {\"config\": \"scenes/configs/cube_messy.json\", \"hand\": \"baseline\", \"name\": \"cube_base\"}\n\nExamples:\n  dexwarp batch items.jsonl --out out/batch --jobs 2\n  dexwarp batch items.jsonl --out out/batch --shard $SLURM_ARRAY_TASK_ID/8\n  dexwarp batch items.jsonl --out out/batch --shard $JOB_COMPLETION_INDEX/8 --force"
+    )]
+    Batch {
+        /// Manifest (JSON Lines).
+        manifest: PathBuf,
+        /// Output folder: one sub-folder per item, plus batch.csv.
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Worker threads (default: one per core).
+        #[arg(long, value_name = "N", default_value_t = 0)]
+        jobs: usize,
+        /// Run only shard K of N (K is 0-based): items whose position is K modulo N.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<dexwarp::batch::Shard>,
+        /// Re-run items that already have a report.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Read the reports below DIR, keep what passes, and list why each of the rest was dropped.
+    #[command(
+        after_help = "Writes KEEP.csv (kept) and KEEP.dropped.csv (dropped, with every reason).\n\nExamples:\n  dexwarp filter reports/latest --out keep.csv\n  dexwarp filter out/batch --max-dc-mm 5 --min-converged 0.99 --out keep.csv"
+    )]
+    Filter {
+        /// Folder with report.json files (searched recursively).
+        dir: PathBuf,
+        /// Kept list (CSV); the dropped list is written next to it.
+        #[arg(long, value_name = "KEEP.csv")]
+        out: PathBuf,
+        /// Drop items whose output D_C is above this [mm].
+        #[arg(long, value_name = "MM", value_parser = positive_mm)]
+        max_dc_mm: Option<f64>,
+        /// Drop items whose IK converged on fewer frames than this fraction (0-1).
+        #[arg(long, value_name = "FRACTION", value_parser = fraction)]
+        min_converged: Option<f64>,
+        /// Drop items whose waypoint error is above this [mm].
+        #[arg(long, value_name = "MM", value_parser = positive_mm)]
+        max_waypoint_error_mm: Option<f64>,
+        /// Drop items whose timewarp discrepancy is above this.
+        #[arg(long, value_name = "D", value_parser = fraction)]
+        max_timewarp: Option<f64>,
+        /// Do not require a physics pass.
+        #[arg(long)]
+        no_physics: bool,
+        /// Keep items whose barrier push-out hit the narrow-gap failure.
+        #[arg(long)]
+        allow_narrow_gap: bool,
     },
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum HandArg {
+    /// Per-frame contact IK on the correspondences (the method).
+    Contact,
     /// Rigid SE(3) transfer at the timewarp, B-spline in between (the paper's baseline).
     Baseline,
+}
+
+impl From<HandArg> for HandMethod {
+    fn from(h: HandArg) -> Self {
+        match h {
+            HandArg::Contact => HandMethod::Contact,
+            HandArg::Baseline => HandMethod::Baseline,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum SolverArg {
+    /// Levenberg-Marquardt with analytic Jacobians.
+    Lm,
+    /// Adam, learning rate 0.01, as in the paper.
+    Adam,
+}
+
+impl From<SolverArg> for Solver {
+    fn from(s: SolverArg) -> Self {
+        match s {
+            SolverArg::Lm => Solver::Lm,
+            SolverArg::Adam => Solver::Adam,
+        }
+    }
 }
 
 fn positive_mm(s: &str) -> std::result::Result<f64, String> {
@@ -111,6 +192,15 @@ fn positive_mm(s: &str) -> std::result::Result<f64, String> {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
         _ => Err(format!(
             "expected a distance in millimetres > 0, like 3.5; got {s:?}"
+        )),
+    }
+}
+
+fn fraction(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "expected a number from 0 to 1, like 0.99; got {s:?}"
         )),
     }
 }
@@ -140,32 +230,98 @@ fn run(cli: Cli) -> Result<()> {
             out,
             threshold_mm,
             hand,
+            solver,
         } => {
             let inputs = Inputs::load(&config, demo.as_deref(), &limits)?;
             let options = Options {
                 demo,
                 threshold_mm,
-                hand: match hand {
-                    HandArg::Baseline => HandMethod::Baseline,
-                },
+                hand: hand.into(),
+                solver: solver.into(),
                 limits,
             };
             let run = pipeline::warp(&inputs, &options)?;
             write_outputs(&out, &run)
         }
+        Command::Batch {
+            manifest,
+            out,
+            jobs,
+            shard,
+            force,
+        } => {
+            let items = batch::read_manifest(&manifest, &limits)?;
+            let outcomes = batch::run(
+                &items,
+                &out,
+                &batch::BatchOptions {
+                    jobs,
+                    shard,
+                    force,
+                    limits,
+                    progress: true,
+                },
+            )?;
+            let count = |s: &str| outcomes.iter().filter(|o| o.status == s).count();
+            eprintln!(
+                "{} items: {} done, {} skipped (already finished), {} failed; summary in {}",
+                outcomes.len(),
+                count("done"),
+                count("skipped"),
+                count("failed"),
+                out.display()
+            );
+            if count("failed") > 0 {
+                anyhow::bail!(
+                    "{} of {} items failed; their report.json says why",
+                    count("failed"),
+                    outcomes.len()
+                );
+            }
+            Ok(())
+        }
+        Command::Filter {
+            dir,
+            out,
+            max_dc_mm,
+            min_converged,
+            max_waypoint_error_mm,
+            max_timewarp,
+            no_physics,
+            allow_narrow_gap,
+        } => {
+            let criteria = filter::Criteria {
+                require_physics_pass: !no_physics,
+                max_dc_mm,
+                min_converged_fraction: min_converged,
+                max_waypoint_error_mm,
+                max_timewarp_discrepancy: max_timewarp,
+                reject_narrow_gap: !allow_narrow_gap,
+            };
+            let result = filter::filter(&dir, &criteria)?;
+            filter::write_rows(&out, &result.kept)?;
+            let dropped = filter::dropped_path(&out);
+            filter::write_rows(&dropped, &result.dropped)?;
+            eprintln!(
+                "kept {} of {} ({}); dropped list with reasons in {}",
+                result.kept.len(),
+                result.kept.len() + result.dropped.len(),
+                out.display(),
+                dropped.display()
+            );
+            Ok(())
+        }
     }
 }
 
 fn write_outputs(out: &Path, run: &pipeline::WarpRun) -> Result<()> {
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let demo_path = out.join(format!("{}.demo.json", run.demo.name));
-    run.demo.save(&demo_path)?;
-    write_json_atomic(&out.join("report.json"), &run.report)?;
+    let written = dexwarp::output::write_run(out, run)?;
     eprintln!(
-        "wrote {} ({} frames) and {}",
-        demo_path.display(),
+        "wrote {} ({} frames), {} and {}",
+        written.demo.display(),
         run.demo.frames.len(),
-        out.join("report.json").display()
+        written.report.display(),
+        written.frames.display()
     );
     Ok(())
 }

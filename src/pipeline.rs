@@ -4,8 +4,9 @@
 //! 1. spatial warp of the object through the waypoints ([`crate::warp::spatial`]),
 //! 2. barrier push-out of the object ([`crate::warp::barrier`]),
 //! 3. temporal retiming: global C² B-spline and the timewarp τ ([`crate::warp::retime`]),
-//! 4. hand recovery: the SE(3) baseline ([`crate::hand::baseline`]) (contact IK lands next),
-//! 5. smoothing of the hand (with contact IK),
+//! 4. hand recovery: per-frame contact IK ([`crate::hand::ik`]) warm-started from the SE(3)
+//!    baseline ([`crate::hand::baseline`]), or the baseline alone,
+//! 5. smoothing of the hand (contact IK only),
 //! 6. physics replay (lands with the physics stage),
 //! 7. metrics ([`crate::metrics`]),
 //! 8. report ([`crate::model::report`]).
@@ -18,12 +19,16 @@ use rapier3d_f64::parry::query;
 use rapier3d_f64::parry::shape::SharedShape;
 
 use crate::geometry::Mesh;
+use crate::hand::ik::{self, Solver};
 use crate::hand::{HandPath, baseline};
 use crate::math::convert::to_pose;
 use crate::metrics;
-use crate::model::report::{Constraints, ContactDistance, Metrics, Pair, REPORT_FORMAT, Report};
+use crate::model::report::{
+    Constraints, ContactDistance, IkSummary, Metrics, Pair, REPORT_FORMAT, Report,
+};
 use crate::model::{Demo, Frame, Scene, WarpConfig};
-use crate::robot::Robot;
+use crate::output::frames::FrameRow;
+use crate::robot::{CollisionShape, Robot};
 use crate::warp::barrier::{Barrier, item_hull_points};
 use crate::warp::{ObjectParams, ObjectPath, ObjectWarp, WarpPlan, warp_object};
 use crate::{Error, Limits, Result};
@@ -32,14 +37,17 @@ use crate::{Error, Limits, Result};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum HandMethod {
-    /// Rigid SE(3) transfer at τ, B-spline in between (the paper's baseline).
+    /// Per-frame contact IK on the correspondences (the method).
     #[default]
+    Contact,
+    /// Rigid SE(3) transfer at τ, B-spline in between (the paper's baseline).
     Baseline,
 }
 
 impl HandMethod {
     pub fn as_str(self) -> &'static str {
         match self {
+            HandMethod::Contact => "contact",
             HandMethod::Baseline => "baseline",
         }
     }
@@ -53,6 +61,8 @@ pub struct Options {
     /// IK threshold overriding the config's [mm].
     pub threshold_mm: Option<f64>,
     pub hand: HandMethod,
+    /// IK solver (contact IK only).
+    pub solver: Solver,
     pub limits: Limits,
 }
 
@@ -64,6 +74,8 @@ pub struct WarpRun {
     pub report: Report,
     pub object: ObjectWarp,
     pub hand: HandPath,
+    /// Per-frame metrics (`frames.csv`).
+    pub frames: Vec<FrameRow>,
 }
 
 /// The inputs of a warp, loaded and checked against each other.
@@ -128,22 +140,59 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     timing.insert("barrier".into(), object.barrier.stats.time_s);
     timing.insert("retime".into(), object.retime.stats.time_s);
 
-    // Stage 4: hand recovery.
+    // Stage 4: hand recovery (the baseline is also contact IK's first warm start).
     let clock = Instant::now();
-    let hand = match options.hand {
-        HandMethod::Baseline => baseline::run(demo, &object)
-            .map_err(|e| Error::invalid(&config.source, "(hand)", e.to_string()))?,
+    let threshold = options.threshold_mm.unwrap_or(config.params.threshold_mm);
+    let base = baseline::run(demo, &object)
+        .map_err(|e| Error::invalid(&config.source, "(hand)", e.to_string()))?;
+    timing.insert("baseline".into(), clock.elapsed().as_secs_f64());
+    let (hand, ik_stats) = match options.hand {
+        HandMethod::Baseline => (base, None),
+        HandMethod::Contact => {
+            let shapes = barrier_shapes(config, scene, &options.limits)?;
+            let params = ik::Params {
+                solver: options.solver,
+                threshold_mm: threshold,
+                margin_m: config.params.margin_m,
+                steepness: config.params.steepness,
+                ..ik::Params::default()
+            };
+            let (hand, stats) = ik::run(robot, demo, &object, &base, &shapes, None, &params);
+            timing.insert("ik".into(), stats.time_s);
+            (hand, Some(stats))
+        }
     };
-    timing.insert("hand".into(), clock.elapsed().as_secs_f64());
 
     // Stages 7-8: metrics and report.
     let clock = Instant::now();
     let out = assemble(demo, &object, &hand, &config.name);
     let threshold = options.threshold_mm.unwrap_or(config.params.threshold_mm);
-    let mut report = report(demo, &out, robot, &object, &barriers, mesh)?;
+    let dc_frames = metrics::contact_distance_per_frame_mm(robot, &out);
+    let mut report = report(demo, &out, &dc_frames, robot, &object, &barriers, mesh)?;
+    let mut frames = frame_rows(&out, &object, &dc_frames);
     report.config = Some(config.source.display().to_string());
     report.threshold_mm = Some(threshold);
     report.hand = Some(options.hand.as_str().into());
+    if let Some(st) = &ik_stats {
+        report.solver = Some(st.solver.as_str().into());
+        report.ik = Some(IkSummary {
+            converged_fraction: st.converged_fraction,
+            not_converged_frames: st.not_converged.clone(),
+            mean_iterations: st.mean_iterations,
+            max_iterations: st.max_iterations_used,
+            min_barrier_clearance_mm: st.min_barrier_clearance_mm,
+        });
+        for r in &mut frames {
+            if let Some(f) = r
+                .frame
+                .checked_sub(st.first_frame)
+                .and_then(|i| st.frames.get(i))
+            {
+                r.ik_converged = Some(f.converged);
+                r.ik_iterations = Some(f.iterations);
+            }
+        }
+    }
     timing.insert("metrics".into(), clock.elapsed().as_secs_f64());
     report.timing_s = timing;
     Ok(WarpRun {
@@ -151,7 +200,23 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         report,
         object,
         hand,
+        frames,
     })
+}
+
+/// The barriers a config names, as world-frame collision shapes (the IK barrier term).
+pub fn barrier_shapes(
+    config: &WarpConfig,
+    scene: &Scene,
+    limits: &Limits,
+) -> Result<Vec<CollisionShape>> {
+    config
+        .barriers
+        .iter()
+        .map(|name| {
+            scene.collision_shape(scene.item(name).expect("checked by check_scene"), limits)
+        })
+        .collect()
 }
 
 /// The barriers a config names, prepared for the push-out.
@@ -221,13 +286,14 @@ pub fn assemble(demo: &Demo, object: &ObjectWarp, hand: &HandPath, name: &str) -
 fn report(
     original: &Demo,
     out: &Demo,
+    dc_frames: &[Option<f64>],
     robot: &Robot,
     object: &ObjectWarp,
     barriers: &[Barrier],
     mesh: &Mesh,
 ) -> Result<Report> {
     let dc_orig = metrics::d_c_mm(&metrics::contact_distance_per_frame_mm(robot, original));
-    let dc_out = metrics::d_c_mm(&metrics::contact_distance_per_frame_mm(robot, out));
+    let dc_out = metrics::d_c_mm(dc_frames);
     let plan = &object.plan;
     let min_clearance = if barriers.is_empty() {
         None
@@ -285,4 +351,39 @@ fn min_clearance_mm(hull: &SharedShape, path: &ObjectPath, barriers: &[Barrier])
         }
     }
     best * 1e3
+}
+
+/// Per-frame rows of `frames.csv` from the stages' outputs.
+fn frame_rows(out: &Demo, object: &ObjectWarp, dc: &[Option<f64>]) -> Vec<FrameRow> {
+    let plan = &object.plan;
+    let (c0, c1, t_end) = (plan.segment.start, plan.segment.end, plan.t_end_new());
+    let tw = &object.retime.timewarp;
+    out.frames
+        .iter()
+        .enumerate()
+        .map(|(t, f)| {
+            let source_frame = if t < c0 {
+                t
+            } else if t <= t_end {
+                tw.source_frame(t as f64).clamp(c0, c1)
+            } else {
+                (t as i64 - plan.post_shift()) as usize
+            };
+            let (o, w) = (f.object.translation.vector, f.wrist.translation.vector);
+            FrameRow {
+                frame: t,
+                source_frame,
+                in_contact: (c0..=t_end).contains(&t),
+                object_x: o.x,
+                object_y: o.y,
+                object_z: o.z,
+                wrist_x: w.x,
+                wrist_y: w.y,
+                wrist_z: w.z,
+                d_c_mm: dc[t],
+                d_c_unsmoothed_mm: dc[t],
+                ..FrameRow::default()
+            }
+        })
+        .collect()
 }

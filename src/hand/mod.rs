@@ -2,6 +2,7 @@
 //! smoothing) the method itself.
 
 pub mod baseline;
+pub mod ik;
 
 use nalgebra::Isometry3;
 

@@ -82,7 +82,8 @@ pub struct DemoFile {
     /// Actuated joints of the robot, in the order of every frame's `joints`.
     pub joint_names: Vec<String>,
     pub frames: Vec<FrameJson>,
-    /// Output time [frames] of each input frame (warped outputs only).
+    /// Output time [frames] of each frame of the demonstration this one was warped from
+    /// (warped outputs only; its length is the input's frame count).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub timewarp: Option<Vec<f64>>,
 }
@@ -209,15 +210,31 @@ impl Demo {
             frames.push(validate_frame(&c, i, f, dof, limits)?);
         }
         if let Some(tw) = &file.timewarp {
-            if tw.len() != n {
+            // τ has one entry per frame of the demonstration that was warped (the input), each
+            // an output time inside this file's frames.
+            if tw.is_empty() || tw.len() as u64 > limits.max_frames {
                 return Err(Error::invalid(
                     path,
                     "timewarp",
-                    format!("has {} entries; expected one per frame ({n})", tw.len()),
+                    format!(
+                        "has {} entries; expected one output time per input frame (1 to {})",
+                        tw.len(),
+                        limits.max_frames
+                    ),
                 ));
             }
             for (i, &t) in tw.iter().enumerate() {
                 c.finite(|| format!("timewarp[{i}]"), t)?;
+                if t < -1e-9 || t > (n - 1) as f64 + 1e-9 {
+                    return Err(Error::invalid(
+                        path,
+                        format!("timewarp[{i}]"),
+                        format!(
+                            "is {t}; expected an output time within the file's frames 0..{}",
+                            n - 1
+                        ),
+                    ));
+                }
                 if i > 0 && t <= tw[i - 1] {
                     return Err(Error::invalid(
                         path,

@@ -1,0 +1,221 @@
+//! Filtering a folder of reports: keep what passes, say why each of the rest was dropped.
+//!
+//! Every `report.json` below the folder is read. An item is kept when it has no error, its
+//! physics verdict is `pass` (unless physics is not required), and it meets every threshold the
+//! user set. A dropped item lists every reason, not just the first.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::model::json::write_atomic;
+use crate::model::report::Report;
+use crate::{Error, Result};
+
+/// What an item must meet to be kept. `None` leaves a check out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Criteria {
+    /// Require `physics.verdict == "pass"`. Default true.
+    pub require_physics_pass: bool,
+    /// Largest output D_C [mm].
+    pub max_dc_mm: Option<f64>,
+    /// Smallest IK converged fraction.
+    pub min_converged_fraction: Option<f64>,
+    /// Largest waypoint error [mm].
+    pub max_waypoint_error_mm: Option<f64>,
+    /// Largest timewarp discrepancy.
+    pub max_timewarp_discrepancy: Option<f64>,
+    /// Reject items whose push-out hit the narrow-gap failure. Default true.
+    pub reject_narrow_gap: bool,
+}
+
+impl Default for Criteria {
+    fn default() -> Self {
+        Criteria {
+            require_physics_pass: true,
+            max_dc_mm: None,
+            min_converged_fraction: None,
+            max_waypoint_error_mm: None,
+            max_timewarp_discrepancy: None,
+            reject_narrow_gap: true,
+        }
+    }
+}
+
+/// One row of the kept or dropped list.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Row {
+    pub name: String,
+    pub report: String,
+    /// The output demonstration next to the report (empty when there is none).
+    pub demo: String,
+    pub d_c_mm: Option<f64>,
+    pub verdict: String,
+    /// Every reason the item was dropped, separated by `; ` (empty when kept).
+    pub reasons: String,
+}
+
+/// Result of a filter run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Filtered {
+    pub kept: Vec<Row>,
+    pub dropped: Vec<Row>,
+}
+
+/// All `report.json` files below `dir`, sorted.
+pub fn find_reports(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let entries = std::fs::read_dir(&d).map_err(|e| Error::read(&d, e))?;
+        for e in entries {
+            let p = e.map_err(|e| Error::read(&d, e))?.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.file_name().is_some_and(|n| n == "report.json") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Applies `criteria` to every report below `dir`.
+pub fn filter(dir: &Path, criteria: &Criteria) -> Result<Filtered> {
+    let reports = find_reports(dir)?;
+    if reports.is_empty() {
+        return Err(Error::invalid(
+            dir,
+            "(folder)",
+            "contains no report.json; expected the output folder of warp, batch or reproduce",
+        ));
+    }
+    let mut result = Filtered::default();
+    for path in reports {
+        let (row, keep) = judge(&path, criteria);
+        if keep {
+            result.kept.push(row);
+        } else {
+            result.dropped.push(row);
+        }
+    }
+    Ok(result)
+}
+
+fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
+    let mut row = Row {
+        name: String::new(),
+        report: path.display().to_string(),
+        demo: String::new(),
+        d_c_mm: None,
+        verdict: String::new(),
+        reasons: String::new(),
+    };
+    let report: Report = match std::fs::read(path)
+        .map_err(|e| e.to_string())
+        .and_then(|b| serde_json::from_slice(&b).map_err(|e| e.to_string()))
+    {
+        Ok(r) => r,
+        Err(e) => {
+            row.reasons = format!("unreadable report: {e}");
+            return (row, false);
+        }
+    };
+    row.name = report.name.clone();
+    let demo = path.with_file_name(format!("{}.demo.json", report.name));
+    if demo.is_file() {
+        row.demo = demo.display().to_string();
+    }
+    let mut reasons = Vec::new();
+    if let Some(e) = &report.error {
+        reasons.push(format!("failed: {e}"));
+    } else {
+        row.d_c_mm = Some(report.metrics.d_c_mm.warped);
+        match &report.physics {
+            Some(p) => {
+                row.verdict = p.verdict.clone();
+                if c.require_physics_pass && p.verdict != "pass" {
+                    if p.reasons.is_empty() {
+                        reasons.push(format!("physics verdict {}", p.verdict));
+                    }
+                    reasons.extend(p.reasons.iter().map(|r| format!("physics: {r}")));
+                }
+            }
+            None if c.require_physics_pass => {
+                reasons.push("no physics verdict in the report".into());
+            }
+            None => {}
+        }
+        let m = &report.metrics;
+        if let Some(max) = c.max_dc_mm
+            && m.d_c_mm.warped > max
+        {
+            reasons.push(format!("D_C {:.2} mm > {max} mm", m.d_c_mm.warped));
+        }
+        if let (Some(min), Some(ik)) = (c.min_converged_fraction, &report.ik)
+            && ik.converged_fraction < min
+        {
+            reasons.push(format!(
+                "IK converged on {:.1}% of frames < {:.1}%",
+                ik.converged_fraction * 100.0,
+                min * 100.0
+            ));
+        }
+        if let Some(max) = c.max_waypoint_error_mm
+            && report.constraints.max_waypoint_error_mm > max
+        {
+            reasons.push(format!(
+                "waypoint error {:.3} mm > {max} mm",
+                report.constraints.max_waypoint_error_mm
+            ));
+        }
+        if let Some(max) = c.max_timewarp_discrepancy
+            && m.timewarp_discrepancy > max
+        {
+            reasons.push(format!(
+                "timewarp discrepancy {:.3} > {max}",
+                m.timewarp_discrepancy
+            ));
+        }
+        if c.reject_narrow_gap
+            && let Some(gap) = &report.constraints.narrow_gap
+        {
+            reasons.push(format!(
+                "narrow gap: {} frames still inside barrier(s) {}",
+                gap.frames.len(),
+                gap.barriers.join(", ")
+            ));
+        }
+    }
+    let keep = reasons.is_empty();
+    row.reasons = reasons.join("; ");
+    (row, keep)
+}
+
+/// Writes `rows` as CSV to `path` atomically.
+pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in rows {
+        w.serialize(r)
+            .map_err(|e| Error::write(path, std::io::Error::other(e)))?;
+    }
+    // An empty list still gets its header, so readers see the columns.
+    if rows.is_empty() {
+        w.write_record(["name", "report", "demo", "d_c_mm", "verdict", "reasons"])
+            .map_err(|e| Error::write(path, std::io::Error::other(e)))?;
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| Error::write(path, std::io::Error::other(e.to_string())))?;
+    write_atomic(path, &bytes)
+}
+
+/// The dropped list's path next to the kept list: `KEEP.csv` → `KEEP.dropped.csv`.
+pub fn dropped_path(keep: &Path) -> PathBuf {
+    let stem = keep
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "keep".into());
+    keep.with_file_name(format!("{stem}.dropped.csv"))
+}

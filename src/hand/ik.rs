@@ -1,0 +1,1080 @@
+//! Stage 4: hand recovery by per-frame contact IK (METHOD.md stage 4, paper "Hand Warping").
+//!
+//! For every output frame `t` of the contact segment, with the correspondences of
+//! `t* = τ⁻¹(t)` (the last input frame mapped at or before `t`) and the warped object pose
+//! `O(t)`, the hand configuration `θ = (wrist t, wrist R, q)` minimizes
+//!
+//! ```text
+//! F(θ) = (1/N) Σ_i |FK_i(θ)·h_i − O(t)·o_i|                       contact distance [m]
+//!      + w_B Σ_b Σ_{p ∈ P(θ)} max(0, 1 − SDF(p, b)/m)^n             barrier term
+//!      + w_P Σ_{p ∈ P(θ)} (max(0, −SDF(p, object))/m)²              penetration (not in the paper)
+//! ```
+//!
+//! `P(θ)` are the links' `surface_points` through forward kinematics, SDFs come from parry
+//! (negative inside). `w_B = 1` is the paper's objective as printed; `w_P = 0` (default)
+//! switches the penetration term off. Only points that can matter are evaluated: a link's
+//! bounding sphere is tested against each obstacle's bounding sphere, then each point
+//! against the obstacle's AABB inflated by the reach (`m` for barriers, 0 for the object).
+//!
+//! **Stop rule** (both solvers): stop as soon as the mean contact distance is below
+//! `threshold_mm` (checked before every iteration, so a warm start that already meets it
+//! costs no iteration). A frame that reaches the cap, or whose step vanishes first, is
+//! reported `converged = false` with its residual; it is never silently accepted.
+//!
+//! **`lm`** (default): Levenberg-Marquardt on the same `F`. The sum of distances is handled
+//! by iteratively reweighted least squares: at the linearization point each contact becomes
+//! the residual `r_i / sqrt(2 N a_i)` with `a_i = max(|r_i|, 0.1 mm)`, the majorizer of
+//! `|r_i|/N` that touches it there (same value, same gradient). So LM minimizes the paper's
+//! objective, not the squared distances: matched contacts stay matched while outliers
+//! (e.g. permuted correspondences) pull with bounded force. Barrier points are residuals
+//! `sqrt(w_B)·g^(n/2)`, `g = max(0, 1 − SDF/m)`, with gradient
+//! `−sqrt(w_B)(n/2) g^(n/2−1)/m · ∇SDFᵀ J`; penetration points `sqrt(w_P)·depth/m`. A
+//! proximal term `ρ |D(θ − θ₀)|²` (`ρ = regularization`, `D` = 1/0.1 m on the wrist
+//! translation, 1 on rotations [rad] and joints) pulls toward the warm start so joints the
+//! contacts do not determine stay put. The normal equations (6 + dof unknowns) use only the
+//! non-zero Jacobian columns of each link (wrist + its chain), Marquardt scaling
+//! `μ·diag(H)`, Nielsen's damping update, and a Cholesky factorization into preallocated
+//! storage; joints at a limit whose gradient pushes outward are frozen for the step, and
+//! every trial is clamped to the limits. Each linear solve counts as one iteration.
+//!
+//! **`adam`**: the paper's solver, faithful: Adam (β = 0.9, 0.999, ε = 1e-8, learning rate
+//! 0.01, moments reset every frame) on exactly `F` (no proximal term), with the parameter
+//! vector wrist translation [m], wrist rotation (local steps `R ← exp(δω)·R`, moments on the
+//! tangent vector) [rad], joints [rad], clamped to the limits after every step.
+//!
+//! Mimic joints are folded into their drivers by the point Jacobian. Nothing allocates per
+//! iteration: every buffer lives in [`IkSolver`].
+
+use std::fmt;
+use std::str::FromStr;
+use std::time::Instant;
+
+use nalgebra::{Cholesky, DMatrix, DVector, Isometry3, Point3, Vector3};
+use rapier3d_f64::parry::math::Pose;
+use serde::{Deserialize, Serialize};
+
+use super::HandPath;
+use crate::math::convert::{from_point, from_vec, to_point, to_pose};
+use crate::model::{Contact, Demo};
+use crate::robot::{CollisionShape, LinkId, Robot, WRIST_DOF, apply_wrist_step};
+use crate::warp::ObjectWarp;
+
+/// Floor of the contact distance in the IRLS weights [m] (0.1 mm).
+const CONTACT_FLOOR_M: f64 = 1e-4;
+/// Length scale of the wrist translation in the proximal term [m].
+const TRANSLATION_SCALE_M: f64 = 0.1;
+/// Initial LM damping (relative to `diag(H)`).
+const MU_INIT: f64 = 1e-3;
+/// Damping beyond which LM gives up (the model no longer predicts any decrease).
+const MU_MAX: f64 = 1e12;
+
+/// The optimizer of the per-frame problem.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Solver {
+    /// Levenberg-Marquardt with analytic Jacobians (fast; default).
+    #[default]
+    Lm,
+    /// Adam, learning rate 0.01, as in the paper (reference for reproduction).
+    Adam,
+}
+
+impl Solver {
+    /// The name used in configs and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Solver::Lm => "lm",
+            Solver::Adam => "adam",
+        }
+    }
+
+    /// Iteration cap per frame when [`Params::max_iterations`] is 0: LM 100, Adam 3000.
+    pub fn default_max_iterations(self) -> usize {
+        match self {
+            Solver::Lm => 100,
+            Solver::Adam => 3000,
+        }
+    }
+}
+
+impl fmt::Display for Solver {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// An unknown solver name.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown IK solver {0:?}; expected \"lm\" or \"adam\"")]
+pub struct UnknownSolver(pub String);
+
+impl FromStr for Solver {
+    type Err = UnknownSolver;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "lm" => Ok(Solver::Lm),
+            "adam" => Ok(Solver::Adam),
+            _ => Err(UnknownSolver(s.to_string())),
+        }
+    }
+}
+
+/// Where each frame's solve starts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WarmStart {
+    /// The previous frame's solution, unchanged (METHOD.md, the paper). Default.
+    #[default]
+    Previous,
+    /// The previous frame's solution carried along by the object's motion between the two
+    /// frames, `W ← O(t)·O(t−1)⁻¹·W` (beyond the paper: fewer iterations, less lag).
+    FollowObject,
+}
+
+/// Parameters of the contact IK.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Params {
+    /// Optimizer. Default `lm`.
+    pub solver: Solver,
+    /// Stop when the mean contact distance is below this [mm]. Default 3.5.
+    pub threshold_mm: f64,
+    /// Iteration cap per frame; 0 = the solver's default (LM 100, Adam 3000). Default 0.
+    pub max_iterations: usize,
+    /// Barrier margin `m` [m]: points farther than this from every barrier cost nothing.
+    /// Default 0.05.
+    pub margin_m: f64,
+    /// Barrier steepness `n` (dimensionless). Default 2.
+    pub steepness: f64,
+    /// Weight of the barrier sum (1 = the paper's objective as printed, 0 = off). Default 1.
+    pub barrier_weight: f64,
+    /// Weight of the hand-object penetration term (beyond the paper; 0 = off). Default 0.
+    pub penetration_weight: f64,
+    /// Adam learning rate [m or rad per step]. Default 0.01 (the paper).
+    pub learning_rate: f64,
+    /// LM only: weight `ρ` of the proximal term toward the warm start (dimensionless, see
+    /// the module docs). Default 1e-4.
+    pub regularization: f64,
+    /// Warm start of each frame. Default `previous`.
+    pub warm_start: WarmStart,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            solver: Solver::Lm,
+            threshold_mm: 3.5,
+            max_iterations: 0,
+            margin_m: 0.05,
+            steepness: 2.0,
+            barrier_weight: 1.0,
+            penetration_weight: 0.0,
+            learning_rate: 0.01,
+            regularization: 1e-4,
+            warm_start: WarmStart::Previous,
+        }
+    }
+}
+
+impl Params {
+    /// The iteration cap in effect (resolves `max_iterations = 0`).
+    pub fn iteration_cap(&self) -> usize {
+        if self.max_iterations == 0 {
+            self.solver.default_max_iterations()
+        } else {
+            self.max_iterations
+        }
+    }
+}
+
+/// A correspondence with its link resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResolvedContact {
+    pub link: LinkId,
+    /// Point on the hand, link frame [m].
+    pub hand_point: Point3<f64>,
+    /// Point on the object, object frame [m].
+    pub object_point: Point3<f64>,
+}
+
+/// Resolves link names to ids. Panics on a name that is not a link of `robot`
+/// ([`Demo::check_robot`] rejects such demonstrations).
+pub fn resolve_contacts(robot: &Robot, contacts: &[Contact]) -> Vec<ResolvedContact> {
+    contacts
+        .iter()
+        .map(|c| ResolvedContact {
+            link: robot
+                .link_id(&c.link)
+                .unwrap_or_else(|| panic!("{:?} is not a link of {:?}", c.link, robot.name)),
+            hand_point: c.hand_point,
+            object_point: c.object_point,
+        })
+        .collect()
+}
+
+/// The outcome of one frame.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameResult {
+    /// The mean contact distance met the threshold (always true without contacts).
+    pub converged: bool,
+    /// Iterations spent (LM: linear solves; Adam: steps).
+    pub iterations: usize,
+    /// Number of correspondences.
+    pub contacts: usize,
+    /// Mean contact distance at the solution [mm] (0 without contacts).
+    pub mean_mm: f64,
+    /// Largest contact distance at the solution [mm].
+    pub max_mm: f64,
+    /// Smallest signed distance from a hand surface point to a barrier [mm] (negative =
+    /// penetration); `None` without barriers.
+    pub min_barrier_clearance_mm: Option<f64>,
+    /// The solver produced a non-finite configuration; the warm start was kept.
+    pub non_finite: bool,
+}
+
+/// An obstacle prepared for point queries: parry pose and bounding volumes (world).
+#[derive(Clone, Debug)]
+struct Obstacle {
+    pose: Pose,
+    mins: Vector3<f64>,
+    maxs: Vector3<f64>,
+    center: Vector3<f64>,
+    radius: f64,
+}
+
+impl Obstacle {
+    fn new(shape: &CollisionShape, world_from_shape: &Isometry3<f64>) -> Obstacle {
+        let pose = to_pose(world_from_shape);
+        let aabb = shape.shape.compute_aabb(&pose);
+        let (mins, maxs) = (from_vec(aabb.mins), from_vec(aabb.maxs));
+        Obstacle {
+            pose,
+            mins,
+            maxs,
+            center: (mins + maxs) / 2.0,
+            radius: (maxs - mins).norm() / 2.0,
+        }
+    }
+
+    /// Distance from `p` to the AABB (0 inside): a lower bound of the SDF.
+    #[inline]
+    fn aabb_distance(&self, p: &Point3<f64>) -> f64 {
+        let d = (self.mins - p.coords)
+            .sup(&(p.coords - self.maxs))
+            .sup(&Vector3::zeros());
+        d.norm()
+    }
+
+    /// Signed distance and its gradient (unit, pointing out) at `p`.
+    #[inline]
+    fn sdf(&self, shape: &CollisionShape, p: &Point3<f64>) -> (f64, Vector3<f64>) {
+        let proj = shape.shape.project_point(&self.pose, to_point(p), false);
+        let diff = p - from_point(proj.point);
+        let d = diff.norm();
+        let sign = if proj.is_inside { -1.0 } else { 1.0 };
+        let grad = if d > 1e-12 {
+            diff * (sign / d)
+        } else {
+            (p.coords - self.center)
+                .try_normalize(1e-12)
+                .unwrap_or_else(Vector3::z)
+        };
+        (sign * d, grad)
+    }
+}
+
+/// Immutable per-solver geometry: the robot, link bounding spheres, non-zero Jacobian
+/// columns of each link, barriers.
+#[derive(Debug)]
+struct Geometry<'a> {
+    robot: &'a Robot,
+    barriers: &'a [CollisionShape],
+    barrier_obstacles: Vec<Obstacle>,
+    object: Option<&'a CollisionShape>,
+    /// Per link: bounding sphere of its surface points (link frame); radius < 0 when none.
+    spheres: Vec<(Point3<f64>, f64)>,
+    /// Per link: range into `col_idx`.
+    col_range: Vec<(usize, usize)>,
+    /// Non-zero Jacobian columns of each link, ascending: the wrist's 6, then its chain.
+    col_idx: Vec<usize>,
+}
+
+impl<'a> Geometry<'a> {
+    fn new(
+        robot: &'a Robot,
+        barriers: &'a [CollisionShape],
+        object: Option<&'a CollisionShape>,
+    ) -> Self {
+        let mut spheres = Vec::with_capacity(robot.link_count());
+        let mut col_range = Vec::with_capacity(robot.link_count());
+        let mut col_idx = Vec::new();
+        for (l, link) in robot.links().iter().enumerate() {
+            let pts = &link.surface_points;
+            if pts.is_empty() {
+                spheres.push((Point3::origin(), -1.0));
+            } else {
+                let (lo, hi) = pts.iter().fold(
+                    (
+                        Vector3::repeat(f64::INFINITY),
+                        Vector3::repeat(f64::NEG_INFINITY),
+                    ),
+                    |(lo, hi), p| (lo.inf(&p.coords), hi.sup(&p.coords)),
+                );
+                let c = Point3::from((lo + hi) / 2.0);
+                let r = pts.iter().map(|p| (p - c).norm()).fold(0.0, f64::max);
+                spheres.push((c, r));
+            }
+            let start = col_idx.len();
+            let mut cols: Vec<usize> = (0..WRIST_DOF).collect();
+            for &j in robot.chain(LinkId(l as u32)) {
+                let joint = robot.joint(j);
+                if let Some(d) = joint.dof {
+                    cols.push(WRIST_DOF + d);
+                } else if let Some(m) = &joint.mimic {
+                    cols.push(WRIST_DOF + m.driver);
+                }
+            }
+            cols.sort_unstable();
+            cols.dedup();
+            col_idx.extend_from_slice(&cols);
+            col_range.push((start, col_idx.len()));
+        }
+        let barrier_obstacles = barriers
+            .iter()
+            .map(|b| Obstacle::new(b, &b.shape_pose))
+            .collect();
+        Geometry {
+            robot,
+            barriers,
+            barrier_obstacles,
+            object,
+            spheres,
+            col_range,
+            col_idx,
+        }
+    }
+
+    #[inline]
+    fn cols(&self, link: usize) -> &[usize] {
+        let (a, b) = self.col_range[link];
+        &self.col_idx[a..b]
+    }
+
+    /// Calls `f(link, p, sdf, ∇sdf)` for every hand surface point whose SDF to `obstacle`
+    /// is below `reach`.
+    fn near_points(
+        &self,
+        poses: &[Isometry3<f64>],
+        shape: &CollisionShape,
+        obstacle: &Obstacle,
+        reach: f64,
+        mut f: impl FnMut(usize, &Point3<f64>, f64, &Vector3<f64>),
+    ) {
+        for (l, link) in self.robot.links().iter().enumerate() {
+            let (c, r) = self.spheres[l];
+            if r < 0.0 {
+                continue;
+            }
+            let cw = poses[l] * c;
+            if (cw.coords - obstacle.center).norm() - r - obstacle.radius > reach {
+                continue;
+            }
+            for s in &link.surface_points {
+                let p = poses[l] * s;
+                if obstacle.aabb_distance(&p) > reach {
+                    continue;
+                }
+                let (d, grad) = obstacle.sdf(shape, &p);
+                if d < reach {
+                    f(l, &p, d, &grad);
+                }
+            }
+        }
+    }
+
+    /// Smallest SDF from any hand surface point to any barrier [m] (branch and bound on
+    /// the bounding volumes); `None` without barriers.
+    fn min_clearance(&self, poses: &[Isometry3<f64>]) -> Option<f64> {
+        if self.barriers.is_empty() {
+            return None;
+        }
+        let mut best = f64::INFINITY;
+        for (shape, obstacle) in self.barriers.iter().zip(&self.barrier_obstacles) {
+            for (l, link) in self.robot.links().iter().enumerate() {
+                let (c, r) = self.spheres[l];
+                if r < 0.0 {
+                    continue;
+                }
+                let cw = poses[l] * c;
+                if (cw.coords - obstacle.center).norm() - r - obstacle.radius >= best {
+                    continue;
+                }
+                for s in &link.surface_points {
+                    let p = poses[l] * s;
+                    if obstacle.aabb_distance(&p) >= best {
+                        continue;
+                    }
+                    best = best.min(obstacle.sdf(shape, &p).0);
+                }
+            }
+        }
+        Some(best)
+    }
+}
+
+/// Values of the objective's parts at one configuration.
+#[derive(Clone, Copy, Debug, Default)]
+struct Eval {
+    /// Σ_i |r_i| [m].
+    sum_m: f64,
+    /// max_i |r_i| [m].
+    max_m: f64,
+    /// w_B Σ Γ_B.
+    barrier: f64,
+    /// w_P Σ Γ_P.
+    penetration: f64,
+    /// ρ |D(θ − θ₀)|² (LM only).
+    proximal: f64,
+}
+
+impl Eval {
+    fn mean_m(&self, n: usize) -> f64 {
+        if n == 0 { 0.0 } else { self.sum_m / n as f64 }
+    }
+
+    fn total(&self, n: usize) -> f64 {
+        self.mean_m(n) + self.barrier + self.penetration + self.proximal
+    }
+}
+
+/// A per-frame contact IK solver with its preallocated workspace. Reuse one for many frames.
+#[derive(Debug)]
+pub struct IkSolver<'a> {
+    geo: Geometry<'a>,
+    params: Params,
+    /// 6 + dof.
+    n: usize,
+    poses: Vec<Isometry3<f64>>,
+    trial_poses: Vec<Isometry3<f64>>,
+    jac: Vec<Vector3<f64>>,
+    row: Vec<f64>,
+    h: DMatrix<f64>,
+    a: DMatrix<f64>,
+    g: DVector<f64>,
+    step: DVector<f64>,
+    diag: Vec<f64>,
+    frozen: Vec<bool>,
+    wrist0: Isometry3<f64>,
+    q0: Vec<f64>,
+    q_trial: Vec<f64>,
+    adam_m: Vec<f64>,
+    adam_v: Vec<f64>,
+    /// The object obstacle of the current frame (world), when the penetration term is on.
+    object_obstacle: Option<Obstacle>,
+}
+
+impl<'a> IkSolver<'a> {
+    /// A solver for `robot` among `barriers` (world-frame shapes). `object` is the object's
+    /// collision shape in the object frame, used by the penetration term only.
+    pub fn new(
+        robot: &'a Robot,
+        barriers: &'a [CollisionShape],
+        object: Option<&'a CollisionShape>,
+        params: Params,
+    ) -> Self {
+        let n = WRIST_DOF + robot.dof();
+        IkSolver {
+            geo: Geometry::new(robot, barriers, object),
+            params,
+            n,
+            poses: robot.new_link_poses(),
+            trial_poses: robot.new_link_poses(),
+            jac: vec![Vector3::zeros(); n],
+            row: vec![0.0; n],
+            h: DMatrix::zeros(n, n),
+            a: DMatrix::zeros(n, n),
+            g: DVector::zeros(n),
+            step: DVector::zeros(n),
+            diag: vec![0.0; n],
+            frozen: vec![false; n],
+            wrist0: Isometry3::identity(),
+            q0: vec![0.0; robot.dof()],
+            q_trial: vec![0.0; robot.dof()],
+            adam_m: vec![0.0; n],
+            adam_v: vec![0.0; n],
+            object_obstacle: None,
+        }
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// Solves one frame in place (warm start = the given `wrist` and `q`, joints in robot
+    /// order). On a non-finite result the warm start is restored and the frame is reported
+    /// not converged.
+    pub fn solve(
+        &mut self,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &mut Isometry3<f64>,
+        q: &mut [f64],
+    ) -> FrameResult {
+        assert_eq!(q.len(), self.geo.robot.dof(), "q has the wrong length");
+        self.wrist0 = *wrist;
+        self.q0.copy_from_slice(q);
+        self.object_obstacle = match self.geo.object {
+            Some(shape) if self.params.penetration_weight > 0.0 => {
+                Some(Obstacle::new(shape, &(object_pose * shape.shape_pose)))
+            }
+            _ => None,
+        };
+        let (converged, iterations, eval) = match self.params.solver {
+            Solver::Lm => self.solve_lm(object_pose, contacts, wrist, q),
+            Solver::Adam => self.solve_adam(object_pose, contacts, wrist, q),
+        };
+        let finite = wrist.translation.vector.iter().all(|v| v.is_finite())
+            && wrist.rotation.coords.iter().all(|v| v.is_finite())
+            && q.iter().all(|v| v.is_finite());
+        let (converged, eval) = if finite {
+            (converged, eval)
+        } else {
+            // NaN or infinity is a reported event, never the output.
+            *wrist = self.wrist0;
+            q.copy_from_slice(&self.q0);
+            let e = self.evaluate(false, object_pose, contacts, wrist, q);
+            (false, e)
+        };
+        let robot = self.geo.robot;
+        robot.forward_kinematics(wrist, q, &mut self.poses);
+        let n = contacts.len();
+        FrameResult {
+            converged,
+            iterations,
+            contacts: n,
+            mean_mm: eval.mean_m(n) * 1e3,
+            max_mm: eval.max_m * 1e3,
+            min_barrier_clearance_mm: self.geo.min_clearance(&self.poses).map(|d| d * 1e3),
+            non_finite: !finite,
+        }
+    }
+
+    fn threshold_m(&self) -> f64 {
+        self.params.threshold_mm * 1e-3
+    }
+
+    /// FK into `poses` (or `trial_poses`) and the objective's parts.
+    fn evaluate(
+        &mut self,
+        trial: bool,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &Isometry3<f64>,
+        q: &[f64],
+    ) -> Eval {
+        let poses = if trial {
+            &mut self.trial_poses
+        } else {
+            &mut self.poses
+        };
+        self.geo.robot.forward_kinematics(wrist, q, poses);
+        let poses = &poses[..];
+        let mut e = Eval::default();
+        for c in contacts {
+            let d = (poses[c.link.index()] * c.hand_point - object_pose * c.object_point).norm();
+            e.sum_m += d;
+            e.max_m = e.max_m.max(d);
+        }
+        let p = &self.params;
+        if p.barrier_weight > 0.0 {
+            let (m, n) = (p.margin_m, p.steepness);
+            let mut sum = 0.0;
+            for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
+                self.geo
+                    .near_points(poses, shape, obstacle, m, |_, _, d, _| {
+                        sum += (1.0 - d / m).powf(n);
+                    });
+            }
+            e.barrier = p.barrier_weight * sum;
+        }
+        if let (Some(shape), Some(obstacle)) = (self.geo.object, &self.object_obstacle) {
+            let m = p.margin_m;
+            let mut sum = 0.0;
+            self.geo
+                .near_points(poses, shape, obstacle, 0.0, |_, _, d, _| {
+                    sum += (d / m) * (d / m);
+                });
+            e.penetration = p.penetration_weight * sum;
+        }
+        if p.solver == Solver::Lm && p.regularization > 0.0 {
+            let dt =
+                (wrist.translation.vector - self.wrist0.translation.vector) / TRANSLATION_SCALE_M;
+            let dr = (wrist.rotation * self.wrist0.rotation.inverse()).scaled_axis();
+            let dq: f64 = q.iter().zip(&self.q0).map(|(a, b)| (a - b) * (a - b)).sum();
+            e.proximal = p.regularization * (dt.norm_squared() + dr.norm_squared() + dq);
+        }
+        e
+    }
+
+    /// `H += rowᵀ row`, `g += rowᵀ e` on the columns `cols` (lower triangle of `H`).
+    #[inline]
+    fn add_row(h: &mut [f64], g: &mut [f64], n: usize, cols: &[usize], row: &[f64], e: f64) {
+        for (k, &a) in cols.iter().enumerate() {
+            let ra = row[a];
+            g[a] += ra * e;
+            for &b in &cols[..=k] {
+                h[a + b * n] += ra * row[b];
+            }
+        }
+    }
+
+    /// Fills `H` (full, symmetric) and `g` of the Gauss-Newton model at `self.poses`
+    /// (see the module docs for the rows).
+    fn linearize(
+        &mut self,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &Isometry3<f64>,
+        q: &[f64],
+    ) {
+        let n = self.n;
+        self.h.fill(0.0);
+        self.g.fill(0.0);
+        let geo = &self.geo;
+        let robot = geo.robot;
+        let poses = &self.poses[..];
+        let h = self.h.as_mut_slice();
+        let g = self.g.as_mut_slice();
+        let jac = &mut self.jac[..];
+        let row = &mut self.row[..];
+        let nc = contacts.len();
+        for c in contacts {
+            let l = c.link.index();
+            let ph = poses[l] * c.hand_point;
+            let r = ph - object_pose * c.object_point;
+            let w = 1.0 / (2.0 * nc as f64 * r.norm().max(CONTACT_FLOOR_M));
+            robot.world_point_jacobian(poses, c.link, &ph, jac);
+            let cols = geo.cols(l);
+            for (k, &a) in cols.iter().enumerate() {
+                g[a] += w * jac[a].dot(&r);
+                for &b in &cols[..=k] {
+                    h[a + b * n] += w * jac[a].dot(&jac[b]);
+                }
+            }
+        }
+        let p = &self.params;
+        if p.barrier_weight > 0.0 {
+            let (m, half) = (p.margin_m, p.steepness / 2.0);
+            let sw = p.barrier_weight.sqrt();
+            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
+                geo.near_points(poses, shape, obstacle, m, |l, pt, d, grad| {
+                    let gap = (1.0 - d / m).max(1e-9);
+                    let e = sw * gap.powf(half);
+                    let coeff = -sw * half * gap.powf(half - 1.0) / m;
+                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                    let cols = geo.cols(l);
+                    for &a in cols {
+                        row[a] = coeff * grad.dot(&jac[a]);
+                    }
+                    Self::add_row(h, g, n, cols, row, e);
+                });
+            }
+        }
+        if let (Some(shape), Some(obstacle)) = (geo.object, &self.object_obstacle) {
+            let m = p.margin_m;
+            let sw = p.penetration_weight.sqrt();
+            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
+                let e = sw * (-d) / m;
+                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                let cols = geo.cols(l);
+                for &a in cols {
+                    row[a] = -sw / m * grad.dot(&jac[a]);
+                }
+                Self::add_row(h, g, n, cols, row, e);
+            });
+        }
+        if p.regularization > 0.0 {
+            let rho = p.regularization;
+            let s2 = 1.0 / (TRANSLATION_SCALE_M * TRANSLATION_SCALE_M);
+            let dt = wrist.translation.vector - self.wrist0.translation.vector;
+            let dr = (wrist.rotation * self.wrist0.rotation.inverse()).scaled_axis();
+            for k in 0..3 {
+                h[k + k * n] += rho * s2;
+                g[k] += rho * s2 * dt[k];
+                h[(k + 3) + (k + 3) * n] += rho;
+                g[k + 3] += rho * dr[k];
+            }
+            for (j, (a, b)) in q.iter().zip(&self.q0).enumerate() {
+                let c = WRIST_DOF + j;
+                h[c + c * n] += rho;
+                g[c] += rho * (a - b);
+            }
+        }
+        // Mirror the lower triangle.
+        for b in 0..n {
+            for a in b + 1..n {
+                h[b + a * n] = h[a + b * n];
+            }
+        }
+    }
+
+    /// Levenberg-Marquardt (see the module docs). Returns (converged, iterations, eval).
+    fn solve_lm(
+        &mut self,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &mut Isometry3<f64>,
+        q: &mut [f64],
+    ) -> (bool, usize, Eval) {
+        let n = self.n;
+        let nc = contacts.len();
+        let cap = self.params.iteration_cap();
+        let threshold = self.threshold_m();
+        let robot = self.geo.robot;
+        let mut cur = self.evaluate(false, object_pose, contacts, wrist, q);
+        let mut iterations = 0;
+        let (mut mu, mut nu) = (MU_INIT, 2.0);
+        let mut stale = true;
+        loop {
+            if cur.mean_m(nc) < threshold {
+                return (true, iterations, cur);
+            }
+            if iterations >= cap || mu > MU_MAX {
+                return (false, iterations, cur);
+            }
+            if stale {
+                self.linearize(object_pose, contacts, wrist, q);
+                for k in 0..n {
+                    self.diag[k] = self.h[(k, k)].max(1e-12);
+                }
+                // Joints at a limit whose descent direction points outward stay frozen.
+                for j in 0..robot.dof() {
+                    let c = WRIST_DOF + j;
+                    let gj = self.g[c];
+                    self.frozen[c] = (q[j] <= robot.lower()[j] && gj > 0.0)
+                        || (q[j] >= robot.upper()[j] && gj < 0.0);
+                }
+                stale = false;
+            }
+            iterations += 1;
+            self.a.copy_from(&self.h);
+            for k in 0..n {
+                self.a[(k, k)] += mu * self.diag[k];
+            }
+            for c in 0..n {
+                if self.frozen[c] {
+                    self.a.row_mut(c).fill(0.0);
+                    self.a.column_mut(c).fill(0.0);
+                    self.a[(c, c)] = 1.0;
+                }
+            }
+            let a = std::mem::replace(&mut self.a, DMatrix::zeros(0, 0));
+            let Some(chol) = Cholesky::new(a) else {
+                // Not positive definite (only through round-off): damp harder. The consumed
+                // storage is reallocated on this rare path only.
+                self.a = DMatrix::zeros(n, n);
+                mu *= nu;
+                nu *= 2.0;
+                continue;
+            };
+            self.step.copy_from(&self.g);
+            for c in 0..n {
+                if self.frozen[c] {
+                    self.step[c] = 0.0;
+                }
+            }
+            self.step.neg_mut();
+            chol.solve_mut(&mut self.step);
+            self.a = chol.unpack_dirty();
+            // Predicted decrease of the model Σe²: −2δᵀg − δᵀHδ (= δᵀHδ + 2μδᵀDδ > 0).
+            let mut pred = 0.0;
+            for a in 0..n {
+                let da = self.step[a];
+                if da == 0.0 {
+                    continue;
+                }
+                let mut hrow = 0.0;
+                for b in 0..n {
+                    hrow += self.h[(a, b)] * self.step[b];
+                }
+                pred += -2.0 * da * self.g[a] - da * hrow;
+            }
+            let mut trial_wrist = *wrist;
+            let s = &self.step;
+            apply_wrist_step(
+                &mut trial_wrist,
+                &Vector3::new(s[0], s[1], s[2]),
+                &Vector3::new(s[3], s[4], s[5]),
+            );
+            for j in 0..q.len() {
+                self.q_trial[j] = q[j] + s[WRIST_DOF + j];
+            }
+            robot.clamp(&mut self.q_trial);
+            let q_trial = std::mem::take(&mut self.q_trial);
+            let next = self.evaluate(true, object_pose, contacts, &trial_wrist, &q_trial);
+            self.q_trial = q_trial;
+            let gain = (cur.total(nc) - next.total(nc)) / pred.max(1e-300);
+            if gain > 0.0 && next.total(nc).is_finite() {
+                *wrist = trial_wrist;
+                q.copy_from_slice(&self.q_trial);
+                std::mem::swap(&mut self.poses, &mut self.trial_poses);
+                cur = next;
+                mu *= (1.0 - (2.0 * gain - 1.0).powi(3)).max(1.0 / 3.0);
+                nu = 2.0;
+                stale = true;
+            } else {
+                mu *= nu;
+                nu *= 2.0;
+            }
+            if self.step.amax() < 1e-12 {
+                // The step vanished without meeting the threshold: a local minimum.
+                return (false, iterations, cur);
+            }
+        }
+    }
+
+    /// The paper's Adam (see the module docs). Returns (converged, iterations, eval).
+    fn solve_adam(
+        &mut self,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &mut Isometry3<f64>,
+        q: &mut [f64],
+    ) -> (bool, usize, Eval) {
+        const B1: f64 = 0.9;
+        const B2: f64 = 0.999;
+        const EPS: f64 = 1e-8;
+        let nc = contacts.len();
+        let cap = self.params.iteration_cap();
+        let threshold = self.threshold_m();
+        let lr = self.params.learning_rate;
+        let robot = self.geo.robot;
+        self.adam_m.fill(0.0);
+        self.adam_v.fill(0.0);
+        let (mut b1t, mut b2t) = (1.0, 1.0);
+        let mut iterations = 0;
+        loop {
+            let cur = self.evaluate(false, object_pose, contacts, wrist, q);
+            if cur.mean_m(nc) < threshold {
+                return (true, iterations, cur);
+            }
+            if iterations >= cap {
+                return (false, iterations, cur);
+            }
+            self.gradient(object_pose, contacts);
+            iterations += 1;
+            b1t *= B1;
+            b2t *= B2;
+            for k in 0..self.n {
+                let gk = self.g[k];
+                self.adam_m[k] = B1 * self.adam_m[k] + (1.0 - B1) * gk;
+                self.adam_v[k] = B2 * self.adam_v[k] + (1.0 - B2) * gk * gk;
+                let mh = self.adam_m[k] / (1.0 - b1t);
+                let vh = self.adam_v[k] / (1.0 - b2t);
+                self.step[k] = -lr * mh / (vh.sqrt() + EPS);
+            }
+            let s = &self.step;
+            apply_wrist_step(
+                wrist,
+                &Vector3::new(s[0], s[1], s[2]),
+                &Vector3::new(s[3], s[4], s[5]),
+            );
+            for j in 0..q.len() {
+                q[j] += s[WRIST_DOF + j];
+            }
+            robot.clamp(q);
+        }
+    }
+
+    /// `g = ∇F` at `self.poses` (exactly the printed objective, no proximal term).
+    fn gradient(&mut self, object_pose: &Isometry3<f64>, contacts: &[ResolvedContact]) {
+        self.g.fill(0.0);
+        let geo = &self.geo;
+        let robot = geo.robot;
+        let poses = &self.poses[..];
+        let g = self.g.as_mut_slice();
+        let jac = &mut self.jac[..];
+        let inv_n = 1.0 / contacts.len().max(1) as f64;
+        for c in contacts {
+            let l = c.link.index();
+            let ph = poses[l] * c.hand_point;
+            let r = ph - object_pose * c.object_point;
+            let d = r.norm();
+            if d < 1e-15 {
+                continue;
+            }
+            let u = r * (inv_n / d);
+            robot.world_point_jacobian(poses, c.link, &ph, jac);
+            for &a in geo.cols(l) {
+                g[a] += u.dot(&jac[a]);
+            }
+        }
+        let p = &self.params;
+        if p.barrier_weight > 0.0 {
+            let (m, n, w) = (p.margin_m, p.steepness, p.barrier_weight);
+            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
+                geo.near_points(poses, shape, obstacle, m, |l, pt, d, grad| {
+                    let gap = 1.0 - d / m;
+                    let coeff = -w * n * gap.powf(n - 1.0) / m;
+                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                    for &a in geo.cols(l) {
+                        g[a] += coeff * grad.dot(&jac[a]);
+                    }
+                });
+            }
+        }
+        if let (Some(shape), Some(obstacle)) = (geo.object, &self.object_obstacle) {
+            let (m, w) = (p.margin_m, p.penetration_weight);
+            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
+                // d(w (−d/m)²) = 2w d/m² ∇d.
+                let coeff = 2.0 * w * d / (m * m);
+                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                for &a in geo.cols(l) {
+                    g[a] += coeff * grad.dot(&jac[a]);
+                }
+            });
+        }
+    }
+}
+
+/// What stage 4 did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    /// Solver used.
+    pub solver: Solver,
+    /// Threshold [mm].
+    pub threshold_mm: f64,
+    /// Iteration cap per frame.
+    pub max_iterations: usize,
+    /// One result per output frame of the contact segment `c0..=t'_end`, in order.
+    pub frames: Vec<FrameResult>,
+    /// First output frame of `frames` (c0).
+    pub first_frame: usize,
+    /// Fraction of `frames` that met the threshold.
+    pub converged_fraction: f64,
+    /// Output frames that did not meet the threshold (cap reached or stalled).
+    pub not_converged: Vec<usize>,
+    /// Output frames whose solution was not finite (the warm start was kept).
+    pub non_finite: Vec<usize>,
+    /// Mean iterations per frame.
+    pub mean_iterations: f64,
+    /// Most iterations in one frame.
+    pub max_iterations_used: usize,
+    /// D_C of the IK solution before smoothing: mean over frames with contacts of
+    /// `mean_mm` [mm].
+    pub d_c_mm: f64,
+    /// Smallest hand-barrier clearance over all frames [mm]; `None` without barriers.
+    pub min_barrier_clearance_mm: Option<f64>,
+    /// Wall time [s].
+    pub time_s: f64,
+}
+
+/// Runs stage 4 (see the module docs).
+///
+/// For every output frame `t` in `[c0, t'_end]`: the correspondences of
+/// `t* = warp.retime.timewarp.source_frame(t)`, the object pose of the warped object at
+/// `t`, and the warm start of [`Params::warm_start`] from the previous frame's solution (the
+/// first frame starts from `init`, e.g. the baseline hand). A frame whose `t*` has no
+/// correspondences (a gap inside the segment) has nothing to fit: its hand is the previous
+/// solution carried along by the object's motion. Frames outside the contact segment are
+/// copied from `init` (the rigid shift of stage 1). `demo` must be in robot joint order
+/// ([`Demo::check_robot`]) and `init` must have one frame per output frame.
+pub fn run(
+    robot: &Robot,
+    demo: &Demo,
+    warp: &ObjectWarp,
+    init: &HandPath,
+    barriers: &[CollisionShape],
+    object: Option<&CollisionShape>,
+    params: &Params,
+) -> (HandPath, Stats) {
+    let clock = Instant::now();
+    let plan = &warp.plan;
+    let (c0, c1) = (plan.segment.start, plan.segment.end);
+    let t_end = plan.t_end_new();
+    let tw = &warp.retime.timewarp;
+    let path = warp.path();
+    assert_eq!(
+        init.len(),
+        plan.frames_out(),
+        "init must have one frame per output frame"
+    );
+    let names: std::collections::HashMap<&str, LinkId> = robot
+        .links()
+        .iter()
+        .enumerate()
+        .map(|(i, l)| (l.name.as_str(), LinkId(i as u32)))
+        .collect();
+    let resolved: Vec<Vec<ResolvedContact>> = demo.frames[c0..=c1]
+        .iter()
+        .map(|f| {
+            f.contacts
+                .iter()
+                .map(|c| ResolvedContact {
+                    link: *names
+                        .get(c.link.as_str())
+                        .unwrap_or_else(|| panic!("{:?} is not a link of the robot", c.link)),
+                    hand_point: c.hand_point,
+                    object_point: c.object_point,
+                })
+                .collect()
+        })
+        .collect();
+
+    let mut out = init.clone();
+    let dof = robot.dof();
+    let mut solver = IkSolver::new(robot, barriers, object, params.clone());
+    let mut wrist = init.wrists[c0];
+    let mut q = init.q(c0).to_vec();
+    let mut prev_object = path.pose(c0);
+    let mut stats = Stats {
+        solver: params.solver,
+        threshold_mm: params.threshold_mm,
+        max_iterations: params.iteration_cap(),
+        first_frame: c0,
+        frames: Vec::with_capacity(t_end + 1 - c0),
+        ..Stats::default()
+    };
+    for t in c0..=t_end {
+        let s = tw.source_frame(t as f64).clamp(c0, c1);
+        let contacts = &resolved[s - c0];
+        let object_pose = path.pose(t);
+        if t > c0 && (contacts.is_empty() || params.warm_start == WarmStart::FollowObject) {
+            wrist = object_pose * prev_object.inverse() * wrist;
+        }
+        let r = solver.solve(&object_pose, contacts, &mut wrist, &mut q);
+        if r.non_finite {
+            stats.non_finite.push(t);
+        }
+        if !r.converged {
+            stats.not_converged.push(t);
+        }
+        out.wrists[t] = wrist;
+        out.joints[t * dof..(t + 1) * dof].copy_from_slice(&q);
+        stats.frames.push(r);
+        prev_object = object_pose;
+    }
+    let count = stats.frames.len().max(1) as f64;
+    stats.converged_fraction = stats.frames.iter().filter(|f| f.converged).count() as f64 / count;
+    stats.mean_iterations = stats.frames.iter().map(|f| f.iterations).sum::<usize>() as f64 / count;
+    stats.max_iterations_used = stats.frames.iter().map(|f| f.iterations).max().unwrap_or(0);
+    let with_contacts: Vec<f64> = stats
+        .frames
+        .iter()
+        .filter(|f| f.contacts > 0)
+        .map(|f| f.mean_mm)
+        .collect();
+    stats.d_c_mm = if with_contacts.is_empty() {
+        0.0
+    } else {
+        with_contacts.iter().sum::<f64>() / with_contacts.len() as f64
+    };
+    stats.min_barrier_clearance_mm = stats
+        .frames
+        .iter()
+        .filter_map(|f| f.min_barrier_clearance_mm)
+        .reduce(f64::min);
+    stats.time_s = clock.elapsed().as_secs_f64();
+    (out, stats)
+}

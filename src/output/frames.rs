@@ -1,0 +1,52 @@
+//! `frames.csv`: per-frame metrics of one output trajectory.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::model::json::write_atomic;
+use crate::{Error, Result};
+
+/// One row of `frames.csv`. Empty cells are values a run did not compute.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FrameRow {
+    /// Output frame.
+    pub frame: usize,
+    /// Input frame whose correspondences this frame uses (`t*`).
+    pub source_frame: usize,
+    /// True inside the output contact segment.
+    pub in_contact: bool,
+    /// Warped object position [m].
+    pub object_x: f64,
+    pub object_y: f64,
+    pub object_z: f64,
+    /// Output wrist position [m].
+    pub wrist_x: f64,
+    pub wrist_y: f64,
+    pub wrist_z: f64,
+    /// Mean correspondence distance of the output [mm].
+    pub d_c_mm: Option<f64>,
+    /// Mean correspondence distance before smoothing [mm].
+    pub d_c_unsmoothed_mm: Option<f64>,
+    /// IK: frame met the threshold.
+    pub ik_converged: Option<bool>,
+    /// IK iterations of the frame.
+    pub ik_iterations: Option<usize>,
+    /// Physics: simulated vs warped object position [mm].
+    pub physics_position_error_mm: Option<f64>,
+    /// Physics: simulated vs warped object rotation [deg].
+    pub physics_rotation_error_deg: Option<f64>,
+}
+
+/// Writes rows as CSV atomically.
+pub fn write_csv(path: &Path, rows: &[FrameRow]) -> Result<()> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in rows {
+        w.serialize(r)
+            .map_err(|e| Error::write(path, std::io::Error::other(e)))?;
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| Error::write(path, std::io::Error::other(e.to_string())))?;
+    write_atomic(path, &bytes)
+}

@@ -1,0 +1,307 @@
+//! The checks on a replay: tracking, drops, penetration, simulation displacement, release.
+//!
+//! - **Tracking**: per frame, `e_p = ‖p_sim − p_demo‖` and `e_R = angle(R_sim⁻¹ R_demo)`.
+//! - **Drop**: the first frame of the contact segment `[c0, c1]` with `e_p` above
+//!   [`Params::drop_error_m`]; the cause is [`DropCause::LostContact`] when the hand does not
+//!   touch the simulated object there (narrow-phase distance above skin + tolerance),
+//!   [`DropCause::Slipped`] otherwise.
+//! - **Penetration**: parry `contact` queries at the demonstration's poses (not Rapier's
+//!   cached manifolds, which recycling leaves stale, and not the simulated poses, which the
+//!   solver has already pushed apart): hand link shapes against the object's convex parts,
+//!   against the checked barriers and against the supports, and object parts against the
+//!   barriers. An AABB test skips far pairs. Per frame the deepest pair counts.
+//! - **Simulation displacement** (ObMan, GraspTTA): at sampled in-contact frames, a fresh
+//!   world with the hand frozen at that frame, the object at the demonstration's pose,
+//!   gravity and no support or barrier; the object's displacement after
+//!   [`Params::stability_steps`] steps of [`Params::stability_dt_s`].
+//! - **Release**: after the last contact frame, the object must end at rest within
+//!   [`Params::support_gap_m`] of a support.
+
+use nalgebra::{Isometry3, Vector3};
+use rapier3d_f64::parry::bounding_volume::{Aabb, BoundingVolume};
+use rapier3d_f64::parry::math::Pose;
+use rapier3d_f64::parry::query;
+use rapier3d_f64::parry::shape::Shape;
+
+use super::object::ObjectShape;
+use super::params::Params;
+use super::report::{Drop, DropCause, Penetration, Stability, Tracking};
+use super::world::ReplayWorld;
+use crate::math::convert::to_pose;
+use crate::math::rotation::angle_between;
+use crate::model::{ContactSegment, Demo};
+use crate::robot::{CollisionShape, Robot};
+
+/// Per-frame position [m] and rotation [rad] errors of the simulated object.
+pub fn tracking_errors(
+    demo: &Demo,
+    simulated: &[Isometry3<f64>],
+) -> (Vec<f64>, Vec<f64>, Tracking) {
+    let mut pos = Vec::with_capacity(simulated.len());
+    let mut rot = Vec::with_capacity(simulated.len());
+    for (f, s) in demo.frames.iter().zip(simulated) {
+        pos.push((s.translation.vector - f.object.translation.vector).norm());
+        rot.push(angle_between(&s.rotation, &f.object.rotation));
+    }
+    let n = pos.len().max(1) as f64;
+    let argmax = |v: &[f64]| {
+        v.iter()
+            .enumerate()
+            .fold((0, 0.0f64), |b, (i, &x)| if x > b.1 { (i, x) } else { b })
+    };
+    let (pf, pm) = argmax(&pos);
+    let (rf, rm) = argmax(&rot);
+    let tracking = Tracking {
+        mean_position_error_mm: pos.iter().sum::<f64>() / n * 1e3,
+        max_position_error_mm: pm * 1e3,
+        max_position_error_frame: pf,
+        mean_rotation_error_deg: rot.iter().sum::<f64>() / n * 180.0 / std::f64::consts::PI,
+        max_rotation_error_deg: rm.to_degrees(),
+        max_rotation_error_frame: rf,
+    };
+    (pos, rot, tracking)
+}
+
+/// The first drop inside `segment` (see the module docs).
+pub fn find_drop(
+    segment: ContactSegment,
+    position_error: &[f64],
+    touching: &[bool],
+    params: &Params,
+) -> Option<Drop> {
+    let end = segment.end.min(position_error.len().saturating_sub(1));
+    let frame = (segment.start..=end).find(|&f| position_error[f] > params.drop_error_m)?;
+    let (cause, contact_lost_frame) = if touching[frame] {
+        (DropCause::Slipped, None)
+    } else {
+        let mut first = frame;
+        while first > segment.start && !touching[first - 1] {
+            first -= 1;
+        }
+        (DropCause::LostContact, Some(first))
+    };
+    Some(Drop {
+        frame,
+        cause,
+        position_error_mm: position_error[frame] * 1e3,
+        contact_lost_frame,
+    })
+}
+
+/// A shape placed in the world for a parry query; `owner` indexes a name list.
+#[derive(Clone, Copy)]
+pub struct Placed<'a> {
+    pub shape: &'a dyn Shape,
+    pub pose: Pose,
+    pub aabb: Aabb,
+    pub owner: usize,
+}
+
+impl<'a> Placed<'a> {
+    pub fn new(shape: &'a dyn Shape, pose: Pose, owner: usize) -> Self {
+        Placed {
+            shape,
+            pose,
+            aabb: shape.compute_aabb(&pose),
+            owner,
+        }
+    }
+}
+
+/// The deepest penetration [m] between any shape of `a` and any of `b`, with the owners;
+/// `None` when nothing penetrates. Pairs parry cannot query add to `unsupported`.
+pub fn deepest(
+    a: &[Placed<'_>],
+    b: &[Placed<'_>],
+    unsupported: &mut usize,
+) -> Option<(f64, usize, usize)> {
+    let mut best: Option<(f64, usize, usize)> = None;
+    for x in a {
+        for y in b {
+            if !x.aabb.intersects(&y.aabb) {
+                continue;
+            }
+            match query::contact(&x.pose, x.shape, &y.pose, y.shape, 0.0) {
+                Ok(Some(c)) if c.dist < 0.0 => {
+                    let depth = -c.dist;
+                    if best.is_none_or(|b| depth > b.0) {
+                        best = Some((depth, x.owner, y.owner));
+                    }
+                }
+                Ok(_) => {}
+                Err(_) => *unsupported += 1,
+            }
+        }
+    }
+    best
+}
+
+/// Accumulates per-frame deepest penetrations into a [`Penetration`].
+#[derive(Debug, Default)]
+pub struct PenetrationAcc {
+    pub out: Penetration,
+    sum: f64,
+}
+
+impl PenetrationAcc {
+    pub fn new(limit_m: Option<f64>) -> Self {
+        PenetrationAcc {
+            out: Penetration {
+                limit_mm: limit_m.map(|l| l * 1e3),
+                ..Penetration::default()
+            },
+            sum: 0.0,
+        }
+    }
+
+    /// Records frame `frame`'s deepest penetration; returns its depth [m] (0 if none).
+    pub fn add(
+        &mut self,
+        frame: usize,
+        hit: Option<(f64, usize, usize)>,
+        names_a: &[String],
+        names_b: &[String],
+    ) -> f64 {
+        let Some((depth, a, b)) = hit else {
+            return 0.0;
+        };
+        let mm = depth * 1e3;
+        self.out.frames_penetrating += 1;
+        self.sum += mm;
+        if self.out.limit_mm.is_some_and(|l| mm > l) {
+            self.out.frames_over_limit += 1;
+        }
+        if mm > self.out.max_mm {
+            self.out.max_mm = mm;
+            self.out.worst_frame = Some(frame);
+            self.out.worst_pair = Some(format!("{} / {}", names_a[a], names_b[b]));
+        }
+        depth
+    }
+
+    pub fn finish(mut self, unsupported: usize) -> Penetration {
+        if self.out.frames_penetrating > 0 {
+            self.out.mean_mm = self.sum / self.out.frames_penetrating as f64;
+        }
+        self.out.unsupported_pairs = unsupported;
+        self.out
+    }
+}
+
+/// The hand's collision shapes in link order: `(link index, shape)`.
+pub fn hand_shapes(robot: &Robot) -> Vec<(usize, &CollisionShape)> {
+    robot
+        .links()
+        .iter()
+        .enumerate()
+        .flat_map(|(i, l)| l.collision.iter().map(move |cs| (i, cs)))
+        .collect()
+}
+
+/// Fills `out` with the hand's shapes placed at `link_poses`, owners = link indices.
+pub fn place_hand<'a>(
+    shapes: &[(usize, &'a CollisionShape)],
+    link_poses: &[Isometry3<f64>],
+    out: &mut Vec<Placed<'a>>,
+) {
+    out.clear();
+    for &(link, cs) in shapes {
+        let pose = to_pose(&(link_poses[link] * cs.shape_pose));
+        out.push(Placed::new(cs.shape.as_ref(), pose, link));
+    }
+}
+
+/// Fills `out` with the object's convex parts at `pose`, owner 0.
+pub fn place_object<'a>(
+    object: &'a ObjectShape,
+    pose: &Isometry3<f64>,
+    out: &mut Vec<Placed<'a>>,
+) {
+    out.clear();
+    let pose = to_pose(pose);
+    for part in &object.parts {
+        out.push(Placed::new(part.as_ref(), pose, 0));
+    }
+}
+
+/// Simulation displacement [m] at one frame (see the module docs).
+pub fn sim_displacement(
+    robot: &Robot,
+    link_poses: &[Isometry3<f64>],
+    object: &ObjectShape,
+    object_pose: &Isometry3<f64>,
+    mass: f64,
+    params: &Params,
+) -> f64 {
+    let mut world = ReplayWorld::new(
+        robot,
+        link_poses,
+        object,
+        object_pose,
+        mass,
+        &[],
+        params,
+        params.stability_dt_s,
+        Vector3::from(params.gravity),
+    );
+    for _ in 0..params.stability_steps {
+        world.drive_hand(link_poses);
+        world.step();
+    }
+    let end = world.object_pose().translation.vector;
+    let d = (end - object_pose.translation.vector).norm();
+    if d.is_finite() { d } else { f64::INFINITY }
+}
+
+/// The in-contact frames to test for stability: `samples` frames evenly spread over the
+/// segment, both ends included, without repeats.
+pub fn stability_frames(segment: ContactSegment, samples: usize) -> Vec<usize> {
+    let len = segment.end - segment.start;
+    let mut frames: Vec<usize> = match samples {
+        0 => Vec::new(),
+        1 => vec![segment.start + len / 2],
+        k => (0..k)
+            .map(|i| segment.start + (i * len + (k - 1) / 2) / (k - 1))
+            .collect(),
+    };
+    frames.dedup();
+    frames
+}
+
+/// Collects stability results into a [`Stability`].
+pub fn stability_stats(frames: Vec<usize>, displacement_m: &[f64], params: &Params) -> Stability {
+    let mm: Vec<f64> = displacement_m.iter().map(|d| d * 1e3).collect();
+    let (max_frame, max_mm) = frames
+        .iter()
+        .zip(&mm)
+        .fold((None, 0.0f64), |b, (&f, &d)| if d > b.1 || b.0.is_none() { (Some(f), d) } else { b });
+    Stability {
+        mean_mm: if mm.is_empty() { 0.0 } else { mm.iter().sum::<f64>() / mm.len() as f64 },
+        max_mm,
+        max_frame,
+        frames,
+        displacement_mm: mm,
+        steps: params.stability_steps,
+        dt_s: params.stability_dt_s,
+    }
+}
+
+/// The nearest support to the object at `pose` and its distance [m] (0 when touching or
+/// penetrating); `None` without supports.
+pub fn nearest_support(
+    object: &ObjectShape,
+    pose: &Isometry3<f64>,
+    supports: &[(String, &CollisionShape)],
+) -> Option<(String, f64)> {
+    let pose = to_pose(pose);
+    let mut best: Option<(String, f64)> = None;
+    for (name, cs) in supports {
+        let sp = to_pose(&cs.shape_pose);
+        let d = query::distance(&pose, object.compound.as_ref(), &sp, cs.shape.as_ref())
+            .map_or(f64::INFINITY, |d| d.distance);
+        if best.as_ref().is_none_or(|b| d < b.1) {
+            best = Some((name.clone(), d));
+        }
+    }
+    best
+}

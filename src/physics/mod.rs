@@ -1,0 +1,334 @@
+//! Stage 6: physics validation of a trajectory in Rapier (METHOD.md, "Physics validation").
+//!
+//! [`validate`] replays one demonstration, warped or original, and judges it:
+//! 1. **object shape**: convex decomposition of the object mesh, cached per process
+//!    ([`object`]);
+//! 2. **world**: every hand link a kinematic position-based body, the object a dynamic body
+//!    with the demonstration's mass at its frame-0 pose (resting on its support), supports
+//!    and the checked barriers fixed ([`world`]);
+//! 3. **replay**: the hand driven along the trajectory at steps of at most 1/240 s, wrist
+//!    slerped and joints lerped between frames, then forward kinematics; the object's pose
+//!    recorded at every frame ([`replay`]);
+//! 4. **checks** ([`checks`]): tracking error of the simulated object against the
+//!    demonstration's, drops inside the contact segment (frame and cause), penetration
+//!    depths (hand-object, hand-barrier, object-barrier, hand-support) by parry queries at
+//!    the demonstration's poses, simulation displacement at sampled in-contact frames
+//!    (ObMan/GraspTTA: hand frozen, gravity, no support, 35 steps of 1/240 s), and where
+//!    the object ends after the release;
+//! 5. **verdict**: every failed check as a sentence ([`verdict`]), in a [`PhysicsReport`]
+//!    that converts to the report's `PhysicsSummary`.
+//!
+//! # Finger softness: why a contact skin
+//!
+//! Rapier has no compliant fingers. A kinematic body pushes a dynamic one only by the
+//! contact solver resolving their overlap, so a grasp holds by friction only while the
+//! fingers overlap the object, and the grip force grows with the overlap (it is the soft
+//! constraint's spring: Rapier's contact softness, 30 Hz, ζ = 10). Demonstrations place
+//! fingertips *on* the surface, within a few millimetres either way; with rigid colliders a
+//! fingertip 1 mm off the surface grips nothing and one 0.5 mm in grips too weakly to lift.
+//!
+//! The model: every hand collider gets a Rapier **contact skin** of
+//! [`Params::finger_skin_m`] (3 mm). The solver then treats the hand as inflated by the
+//! skin (`dist − skin`), exactly like a pad that starts pressing 3 mm before the rigid
+//! surfaces meet, while the geometry, the penetration checks and the rendering keep the
+//! URDF shapes. A fingertip at the surface ±2 mm "compresses" its pad by 1-5 mm and holds.
+//! Alternatives measured and rejected:
+//! - inflating the finger shapes (round shapes) does the same for the solver but changes
+//!   what the penetration checks and the touch test measure;
+//! - softening the global contact parameters changes the object-support contacts too (the
+//!   object sinks into its support).
+//!
+//! Measured on this machine (f64, release, 1/240 s, 4 solver iterations, μ = 1): see
+//! `tests/it/physics.rs` for the laws and the figures they print.
+//!
+//! Determinism: bodies and colliders are inserted in a fixed order, nothing iterates a
+//! `HashMap` into a result, and Rapier runs single-threaded, so the same input gives the
+//! same report, wall times aside.
+
+mod checks;
+pub mod object;
+pub mod params;
+mod replay;
+pub mod report;
+mod verdict;
+pub mod world;
+
+use std::time::Instant;
+
+use nalgebra::Vector3;
+
+pub use object::{ObjectShape, ShapeMethod, object_shape};
+pub use params::{DecompositionParams, Params};
+pub use report::{
+    Drop, DropCause, Penetration, Penetrations, PerFrame, PhysicsReport, Release, ReplayInfo,
+    Stability, Timing, Tracking,
+};
+
+use crate::geometry::Mesh;
+use crate::model::{Demo, Role, Scene};
+use crate::robot::{CollisionShape, Robot};
+use crate::{Error, Limits, Result};
+use checks::{PenetrationAcc, Placed};
+use world::{FixedItem, ReplayWorld, Tag};
+
+/// Replays `demo` with `robot` in `scene` and judges it (see the module docs).
+///
+/// - `demo` must be bound to `robot` ([`Demo::check_robot`]): joints in robot order;
+/// - `barriers`: names of the scene's items the hand and object are checked against (and
+///   that block the object); supports are always in the world;
+/// - `object_mesh`: the demonstration's object mesh, object frame;
+/// - `limits`: for loading the scene's mesh items.
+///
+/// Fails only on unusable input (unknown barrier, unbound demo, bad parameters, degenerate
+/// mesh); every physical failure is a reason in the returned report.
+pub fn validate(
+    robot: &Robot,
+    demo: &Demo,
+    scene: &Scene,
+    barriers: &[String],
+    object_mesh: &Mesh,
+    params: &Params,
+    limits: &Limits,
+) -> Result<PhysicsReport> {
+    let start = Instant::now();
+    params.check()?;
+    check_demo(robot, demo)?;
+
+    // 1. Object shape.
+    let (object, cached) = object_shape(object_mesh, &params.decomposition).ok_or_else(|| {
+        Error::invalid(
+            &demo.object.mesh,
+            "vertices",
+            "the mesh is degenerate (fewer than four non-coplanar vertices); expected a solid object",
+        )
+    })?;
+    let decomposition_s = start.elapsed().as_secs_f64();
+
+    // 2. Scene: supports and the checked barriers, in scene order.
+    let mut supports: Vec<(String, CollisionShape)> = Vec::new();
+    let mut solid: Vec<(String, CollisionShape)> = Vec::new();
+    for name in barriers {
+        if scene.item(name).is_none() {
+            return Err(Error::invalid(
+                &scene.source,
+                "items",
+                format!(
+                    "has no item named {name:?} (a barrier of the config); items: {}",
+                    scene
+                        .items
+                        .iter()
+                        .map(|i| i.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
+    }
+    for item in &scene.items {
+        if item.role == Role::Support {
+            supports.push((item.name.clone(), scene.collision_shape(item, limits)?));
+        } else if barriers.contains(&item.name) {
+            solid.push((item.name.clone(), scene.collision_shape(item, limits)?));
+        }
+    }
+    let fixed: Vec<FixedItem<'_>> = supports
+        .iter()
+        .map(|(_, s)| FixedItem {
+            shape: s,
+            tag: Tag::Support,
+        })
+        .chain(solid.iter().map(|(_, s)| FixedItem {
+            shape: s,
+            tag: Tag::Barrier,
+        }))
+        .collect();
+
+    // 3. Replay.
+    let t_replay = Instant::now();
+    let n = replay::steps_per_frame(demo.fps, params.max_dt_s);
+    let mut link_poses = robot.new_link_poses();
+    let f0 = &demo.frames[0];
+    robot.forward_kinematics(&f0.wrist, &f0.joints, &mut link_poses);
+    let mut world = ReplayWorld::new(
+        robot,
+        &link_poses,
+        &object,
+        &f0.object,
+        demo.object.mass,
+        &fixed,
+        params,
+        1.0 / (n as f64 * demo.fps),
+        Vector3::from(params.gravity),
+    );
+    let trace = replay::replay(robot, demo, &mut world, n);
+    let replay_s = t_replay.elapsed().as_secs_f64();
+
+    // 4. Checks.
+    let segment = demo.contact_segment();
+    let (pos_err, rot_err, tracking) = checks::tracking_errors(demo, &trace.object);
+    let touch_limit = params.finger_skin_m + params.touch_tolerance_m;
+    let touching: Vec<bool> = trace
+        .hand_gap_m
+        .iter()
+        .map(|g| g.is_some_and(|g| g <= touch_limit))
+        .collect();
+    let dropped = segment.and_then(|s| checks::find_drop(s, &pos_err, &touching, params));
+
+    let t_pen = Instant::now();
+    let shapes = checks::hand_shapes(robot);
+    let link_names: Vec<String> = robot.links().iter().map(|l| l.name.clone()).collect();
+    let object_names = vec![demo.object.name.clone()];
+    let barrier_names: Vec<String> = solid.iter().map(|(n, _)| n.clone()).collect();
+    let support_names: Vec<String> = supports.iter().map(|(n, _)| n.clone()).collect();
+    let barrier_placed = place_fixed(&solid);
+    let support_placed = place_fixed(&supports);
+    let mut hand_object = PenetrationAcc::new(Some(params.max_hand_object_penetration_m));
+    let mut hand_barrier = PenetrationAcc::new(Some(params.max_hand_barrier_penetration_m));
+    let mut object_barrier = PenetrationAcc::new(Some(params.max_object_barrier_penetration_m));
+    let mut hand_support = PenetrationAcc::new(None);
+    let mut unsupported = [0usize; 4];
+    let mut hand_placed = Vec::new();
+    let mut object_placed = Vec::new();
+    let mut per_ho = Vec::with_capacity(demo.frames.len());
+    let mut per_hb = Vec::with_capacity(demo.frames.len());
+    for (i, frame) in demo.frames.iter().enumerate() {
+        robot.forward_kinematics(&frame.wrist, &frame.joints, &mut link_poses);
+        checks::place_hand(&shapes, &link_poses, &mut hand_placed);
+        checks::place_object(&object, &frame.object, &mut object_placed);
+        let hit = checks::deepest(&hand_placed, &object_placed, &mut unsupported[0]);
+        per_ho.push(hand_object.add(i, hit, &link_names, &object_names) * 1e3);
+        let hit = checks::deepest(&hand_placed, &barrier_placed, &mut unsupported[1]);
+        per_hb.push(hand_barrier.add(i, hit, &link_names, &barrier_names) * 1e3);
+        let hit = checks::deepest(&object_placed, &barrier_placed, &mut unsupported[2]);
+        object_barrier.add(i, hit, &object_names, &barrier_names);
+        let hit = checks::deepest(&hand_placed, &support_placed, &mut unsupported[3]);
+        hand_support.add(i, hit, &link_names, &support_names);
+    }
+    let penetration = Penetrations {
+        hand_object: hand_object.finish(unsupported[0]),
+        hand_barrier: hand_barrier.finish(unsupported[1]),
+        object_barrier: object_barrier.finish(unsupported[2]),
+        hand_support: hand_support.finish(unsupported[3]),
+    };
+    let penetration_s = t_pen.elapsed().as_secs_f64();
+
+    let t_stab = Instant::now();
+    let stability = segment.map(|s| {
+        let frames = checks::stability_frames(s, params.stability_samples);
+        let displacement: Vec<f64> = frames
+            .iter()
+            .map(|&f| {
+                let frame = &demo.frames[f];
+                robot.forward_kinematics(&frame.wrist, &frame.joints, &mut link_poses);
+                checks::sim_displacement(
+                    robot,
+                    &link_poses,
+                    &object,
+                    &frame.object,
+                    demo.object.mass,
+                    params,
+                )
+            })
+            .collect();
+        checks::stability_stats(frames, &displacement, params)
+    });
+    let stability_s = t_stab.elapsed().as_secs_f64();
+
+    let last = demo.frames.len() - 1;
+    let release = segment.filter(|s| s.end < last).map(|s| {
+        let pose = &trace.object[last];
+        let speed = trace.speed_m_s[last];
+        let nearest = checks::nearest_support(&object, pose, &named(&supports));
+        let rests = speed < params.rest_speed_m_s
+            && nearest
+                .as_ref()
+                .is_some_and(|(_, d)| *d <= params.support_gap_m);
+        Release {
+            frame: s.end,
+            rests_on_support: rests,
+            support_gap_mm: nearest.as_ref().map(|(_, d)| d * 1e3),
+            support: nearest.map(|(n, _)| n),
+            final_speed_m_s: speed,
+        }
+    });
+
+    // 5. Verdict.
+    let mut report = PhysicsReport {
+        reasons: Vec::new(),
+        tracking,
+        drop: dropped,
+        penetration,
+        stability,
+        release,
+        replay: ReplayInfo {
+            frames: demo.frames.len(),
+            steps: trace.steps,
+            dt_s: trace.dt_s,
+            steps_per_frame: trace.steps_per_frame,
+            solver_iterations: params.solver_iterations,
+            contact_segment: segment.map(|s| [s.start, s.end]),
+            object_parts: object.parts.len(),
+            object_shape: Some(object.method),
+            decomposition_cached: cached,
+            diverged_frame: trace.diverged_at,
+        },
+        timing_s: Timing {
+            decomposition: decomposition_s,
+            replay: replay_s,
+            penetration: penetration_s,
+            stability: stability_s,
+            total: 0.0,
+        },
+        per_frame: PerFrame {
+            position_error_mm: pos_err.iter().map(|e| e * 1e3).collect(),
+            rotation_error_deg: rot_err.iter().map(|e| e.to_degrees()).collect(),
+            hand_touching: touching,
+            hand_object_penetration_mm: per_ho,
+            hand_barrier_penetration_mm: per_hb,
+        },
+    };
+    report.reasons = verdict::reasons(&report, params);
+    report.timing_s.total = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+fn place_fixed(items: &[(String, CollisionShape)]) -> Vec<Placed<'_>> {
+    items
+        .iter()
+        .enumerate()
+        .map(|(i, (_, cs))| {
+            Placed::new(cs.shape.as_ref(), crate::math::convert::to_pose(&cs.shape_pose), i)
+        })
+        .collect()
+}
+
+fn named(items: &[(String, CollisionShape)]) -> Vec<(String, &CollisionShape)> {
+    items.iter().map(|(n, s)| (n.clone(), s)).collect()
+}
+
+fn check_demo(robot: &Robot, demo: &Demo) -> Result<()> {
+    if demo.frames.is_empty() {
+        return Err(Error::invalid(&demo.source, "frames", "is empty; expected at least one frame"));
+    }
+    if let Some((i, f)) = demo
+        .frames
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.joints.len() != robot.dof())
+    {
+        return Err(Error::invalid(
+            &demo.source,
+            format!("frames[{i}].joints"),
+            format!(
+                "has {} values but robot {:?} has {} actuated joints; bind the demonstration with Demo::check_robot first",
+                f.joints.len(),
+                robot.name,
+                robot.dof()
+            ),
+        ));
+    }
+    if !(demo.fps.is_finite() && demo.fps > 0.0) {
+        return Err(Error::invalid(&demo.source, "fps", format!("is {}; expected > 0", demo.fps)));
+    }
+    Ok(())
+}

@@ -1,0 +1,220 @@
+//! Parameters of the physics replay and the thresholds of its verdict.
+//!
+//! Lengths in metres, times in seconds, angles in degrees where the name says `_deg`; every
+//! default is documented with the reason it was chosen (measurements in the module docs of
+//! [`super`]).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// How the object mesh is split into convex parts (V-HACD, parry's `VHACDParameters`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DecompositionParams {
+    /// Voxel grid resolution along the longest axis; default 32. parry's 64 takes 0.5-2 s on
+    /// the mug and teapot; 32 keeps handles and spouts as separate parts in well under a
+    /// second.
+    pub resolution: u32,
+    /// Largest concavity a part may keep, relative to the mesh size; default 0.02 (parry's
+    /// 0.01 splits a plain box into many slivers without a better fit).
+    pub concavity: f64,
+    /// Most convex parts; default 24 (the contact work per step grows with it).
+    pub max_parts: u32,
+}
+
+impl Default for DecompositionParams {
+    fn default() -> Self {
+        DecompositionParams {
+            resolution: 32,
+            concavity: 0.02,
+            max_parts: 24,
+        }
+    }
+}
+
+/// Parameters of [`super::validate`]. `Default` is the configuration the reports use.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Params {
+    /// Largest simulation step [s]; default 1/240. The frame period is split into the fewest
+    /// equal steps not longer than this. 1/240 s is PyBullet's default and what ObMan and
+    /// GraspTTA simulate at; a fingertip moving at 0.5 m/s moves 2 mm per step, less than
+    /// the finger skin, so contacts are never stepped over.
+    pub max_dt_s: f64,
+    /// Solver iterations per step (Rapier's `num_solver_iterations`, which are substeps);
+    /// default 4 (Rapier's default; 8 changed the gripper's tracking error by < 0.1 mm).
+    pub solver_iterations: usize,
+    /// Gravity [m/s²]; default `[0, 0, -9.81]`: scenes are z-up.
+    pub gravity: [f64; 3],
+    /// Friction coefficient between the hand and the object; default 1.0 (rubber finger pads
+    /// or skin on plastic and ceramic, 0.8-1.2). The hand's colliders use the `Max` combine
+    /// rule so this value is the one used, whatever the object's own friction.
+    pub hand_friction: f64,
+    /// Friction coefficient of the object against supports and barriers; default 0.6
+    /// (ceramic or plastic on wood or laminate).
+    pub object_friction: f64,
+    /// The finger softness model: Rapier contact skin on every hand collider [m]; default
+    /// 0.003. The solver treats the hand as inflated by this much, so a fingertip within
+    /// 3 mm of the surface already presses on it and one 2 mm inside presses with 5 mm of
+    /// "compression". See the module docs of [`super`] for why and what was measured.
+    pub finger_skin_m: f64,
+    /// Convex decomposition of the object mesh.
+    pub decomposition: DecompositionParams,
+
+    /// Largest mean object position error over all frames [m]; default 0.02.
+    pub max_mean_position_error_m: f64,
+    /// Largest object position error at any frame [m]; default 0.05.
+    pub max_position_error_m: f64,
+    /// Largest mean object rotation error over all frames [deg]; default 15.
+    pub max_mean_rotation_error_deg: f64,
+    /// Position error [m] past which the object counts as dropped, when it happens inside
+    /// the contact segment; default 0.03 (ten times a good grasp's tracking error, and a
+    /// free fall passes it within 80 ms, about two frames at 30 fps).
+    pub drop_error_m: f64,
+    /// Gap [m] between the hand's colliders and the object beyond the finger skin within
+    /// which they count as touching; default 0.001.
+    pub touch_tolerance_m: f64,
+    /// Largest hand-object penetration at the demonstration's poses [m]; default 0.005
+    /// (a fingertip pad compresses a few millimetres).
+    pub max_hand_object_penetration_m: f64,
+    /// Largest hand-barrier penetration at the demonstration's poses [m]; default 0.002.
+    pub max_hand_barrier_penetration_m: f64,
+    /// Largest object-barrier penetration at the demonstration's poses [m]; default 0.002.
+    pub max_object_barrier_penetration_m: f64,
+
+    /// In-contact frames sampled for the simulation displacement; default 8, evenly spread
+    /// over the contact segment including both ends.
+    pub stability_samples: usize,
+    /// Steps of the simulation displacement test; default 35 (ObMan, GraspTTA).
+    pub stability_steps: usize,
+    /// Step of the simulation displacement test [s]; default 1/240 (PyBullet's, as in
+    /// ObMan and GraspTTA).
+    pub stability_dt_s: f64,
+    /// Largest simulation displacement at a sampled frame [m]; default 0.03 (a free fall
+    /// over the test moves 10.4 cm; a firm grasp moves a few millimetres).
+    pub max_sim_displacement_m: f64,
+
+    /// Speed [m/s] below which the released object counts as at rest; default 0.05.
+    pub rest_speed_m_s: f64,
+    /// Gap [m] to a support within which the released object counts as resting on it;
+    /// default 0.003.
+    pub support_gap_m: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            max_dt_s: 1.0 / 240.0,
+            solver_iterations: 4,
+            gravity: [0.0, 0.0, -9.81],
+            hand_friction: 1.0,
+            object_friction: 0.6,
+            finger_skin_m: 0.003,
+            decomposition: DecompositionParams::default(),
+            max_mean_position_error_m: 0.02,
+            max_position_error_m: 0.05,
+            max_mean_rotation_error_deg: 15.0,
+            drop_error_m: 0.03,
+            touch_tolerance_m: 0.001,
+            max_hand_object_penetration_m: 0.005,
+            max_hand_barrier_penetration_m: 0.002,
+            max_object_barrier_penetration_m: 0.002,
+            stability_samples: 8,
+            stability_steps: 35,
+            stability_dt_s: 1.0 / 240.0,
+            max_sim_displacement_m: 0.03,
+            rest_speed_m_s: 0.05,
+            support_gap_m: 0.003,
+        }
+    }
+}
+
+impl Params {
+    /// Checks that every value is usable; the error names the field and what is expected.
+    pub fn check(&self) -> Result<()> {
+        let path = Path::new("physics parameters");
+        let positive = |field: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::invalid(
+                    path,
+                    field,
+                    format!("is {v}; expected a finite value > 0"),
+                ))
+            }
+        };
+        let non_negative = |field: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(Error::invalid(
+                    path,
+                    field,
+                    format!("is {v}; expected a finite value >= 0"),
+                ))
+            }
+        };
+        positive("max_dt_s", self.max_dt_s)?;
+        positive("stability_dt_s", self.stability_dt_s)?;
+        for (field, v) in [
+            ("hand_friction", self.hand_friction),
+            ("object_friction", self.object_friction),
+            ("finger_skin_m", self.finger_skin_m),
+            ("touch_tolerance_m", self.touch_tolerance_m),
+            ("support_gap_m", self.support_gap_m),
+        ] {
+            non_negative(field, v)?;
+        }
+        for (field, v) in [
+            ("max_mean_position_error_m", self.max_mean_position_error_m),
+            ("max_position_error_m", self.max_position_error_m),
+            ("max_mean_rotation_error_deg", self.max_mean_rotation_error_deg),
+            ("drop_error_m", self.drop_error_m),
+            (
+                "max_hand_object_penetration_m",
+                self.max_hand_object_penetration_m,
+            ),
+            (
+                "max_hand_barrier_penetration_m",
+                self.max_hand_barrier_penetration_m,
+            ),
+            (
+                "max_object_barrier_penetration_m",
+                self.max_object_barrier_penetration_m,
+            ),
+            ("max_sim_displacement_m", self.max_sim_displacement_m),
+            ("rest_speed_m_s", self.rest_speed_m_s),
+        ] {
+            positive(field, v)?;
+        }
+        if self.gravity.iter().any(|g| !g.is_finite()) {
+            return Err(Error::invalid(
+                path,
+                "gravity",
+                format!("is {:?}; expected finite components", self.gravity),
+            ));
+        }
+        if self.solver_iterations == 0 {
+            return Err(Error::invalid(
+                path,
+                "solver_iterations",
+                "is 0; expected at least 1",
+            ));
+        }
+        let d = &self.decomposition;
+        if d.resolution < 4 || d.max_parts == 0 || !(d.concavity >= 0.0) {
+            return Err(Error::invalid(
+                path,
+                "decomposition",
+                format!(
+                    "is {d:?}; expected resolution >= 4, max_parts >= 1, concavity >= 0"
+                ),
+            ));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,211 @@
+//! What the physics stage measured, its verdict, and the conversion to the report's
+//! [`PhysicsSummary`].
+//!
+//! Every field is a measurement, in millimetres, degrees, seconds or frames (frame indices
+//! are output frames of the replayed demonstration). The verdict is `pass` exactly when
+//! [`PhysicsReport::reasons`] is empty; each reason names the check, the frame and the
+//! measured value against its limit.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::object::ShapeMethod;
+use crate::model::report::PhysicsSummary;
+
+/// Simulated object pose vs the demonstration's, over all frames.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Tracking {
+    pub mean_position_error_mm: f64,
+    pub max_position_error_mm: f64,
+    pub max_position_error_frame: usize,
+    pub mean_rotation_error_deg: f64,
+    pub max_rotation_error_deg: f64,
+    pub max_rotation_error_frame: usize,
+}
+
+/// Why the object left the grasp.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DropCause {
+    /// The hand no longer touched the object.
+    LostContact,
+    /// The hand still touched the object, which slid or turned out of place.
+    Slipped,
+}
+
+/// A drop inside the contact segment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Drop {
+    /// First frame at which the position error exceeded the drop limit.
+    pub frame: usize,
+    pub cause: DropCause,
+    /// Position error at `frame` [mm].
+    pub position_error_mm: f64,
+    /// For [`DropCause::LostContact`]: first frame of the contact-less run that ends at
+    /// `frame`.
+    pub contact_lost_frame: Option<usize>,
+}
+
+/// Penetration depths of one pair type, measured with parry at the demonstration's poses.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Penetration {
+    /// Deepest penetration over all frames [mm] (0 when nothing penetrates).
+    pub max_mm: f64,
+    /// Mean of the per-frame deepest penetration over the frames that penetrate [mm].
+    pub mean_mm: f64,
+    /// Frames with any penetration.
+    pub frames_penetrating: usize,
+    /// Frames deeper than the limit (0 without a limit).
+    pub frames_over_limit: usize,
+    /// The limit [mm]; `null` for pairs that are measured but not judged.
+    pub limit_mm: Option<f64>,
+    /// Frame of `max_mm`.
+    pub worst_frame: Option<usize>,
+    /// The two shapes of `max_mm`, e.g. `left_finger / counter`.
+    pub worst_pair: Option<String>,
+    /// Shape pairs parry cannot query (mesh against mesh), skipped.
+    pub unsupported_pairs: usize,
+}
+
+/// All pair types.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Penetrations {
+    pub hand_object: Penetration,
+    pub hand_barrier: Penetration,
+    pub object_barrier: Penetration,
+    /// Measured only: a placing hand may touch the support it places on.
+    pub hand_support: Penetration,
+}
+
+/// Simulation displacement (ObMan, GraspTTA): per sampled in-contact frame, the hand frozen,
+/// the object at the demonstration's pose, gravity, no support.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stability {
+    pub frames: Vec<usize>,
+    pub displacement_mm: Vec<f64>,
+    pub mean_mm: f64,
+    pub max_mm: f64,
+    pub max_frame: Option<usize>,
+    /// Steps and step length of each test.
+    pub steps: usize,
+    pub dt_s: f64,
+}
+
+/// The object after the last contact frame.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Release {
+    /// The last contact frame (c1).
+    pub frame: usize,
+    /// At the last frame the object is at rest within the gap of a support.
+    pub rests_on_support: bool,
+    /// The nearest support and its distance at the last frame.
+    pub support: Option<String>,
+    pub support_gap_mm: Option<f64>,
+    /// Object speed at the last frame [m/s].
+    pub final_speed_m_s: f64,
+}
+
+/// How the replay ran.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ReplayInfo {
+    pub frames: usize,
+    pub steps: usize,
+    pub dt_s: f64,
+    pub steps_per_frame: usize,
+    pub solver_iterations: usize,
+    /// `[c0, c1]`, `null` without contacts.
+    pub contact_segment: Option<[usize; 2]>,
+    pub object_parts: usize,
+    pub object_shape: Option<ShapeMethod>,
+    /// The decomposition came from the process cache.
+    pub decomposition_cached: bool,
+    /// First frame whose simulated object pose was not finite.
+    pub diverged_frame: Option<usize>,
+}
+
+/// Wall times [s] (the only fields that differ between two runs on the same input).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Timing {
+    pub decomposition: f64,
+    pub replay: f64,
+    pub penetration: f64,
+    pub stability: f64,
+    pub total: f64,
+}
+
+/// Per-frame values, for `frames.csv` and plots (not in the summary).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PerFrame {
+    pub position_error_mm: Vec<f64>,
+    pub rotation_error_deg: Vec<f64>,
+    /// The hand touches the simulated object (within the skin and the touch tolerance).
+    pub hand_touching: Vec<bool>,
+    pub hand_object_penetration_mm: Vec<f64>,
+    pub hand_barrier_penetration_mm: Vec<f64>,
+}
+
+/// Everything [`super::validate`] measured.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PhysicsReport {
+    /// Every failed check, in words; empty = pass.
+    pub reasons: Vec<String>,
+    pub tracking: Tracking,
+    pub drop: Option<Drop>,
+    pub penetration: Penetrations,
+    /// `null` without a contact segment.
+    pub stability: Option<Stability>,
+    /// `null` when the contact segment runs to the last frame (nothing is released).
+    pub release: Option<Release>,
+    pub replay: ReplayInfo,
+    pub timing_s: Timing,
+    #[serde(skip)]
+    pub per_frame: PerFrame,
+}
+
+impl PhysicsReport {
+    /// `true` when no check failed.
+    pub fn passed(&self) -> bool {
+        self.reasons.is_empty()
+    }
+
+    /// `"pass"` or `"fail"`.
+    pub fn verdict(&self) -> &'static str {
+        if self.passed() { "pass" } else { "fail" }
+    }
+
+    /// The report's physics section: verdict, reasons and the measures (everything but the
+    /// per-frame values), with `released_on_support` and `drop_frame` at the top level for
+    /// filtering.
+    pub fn to_summary(&self) -> PhysicsSummary {
+        let mut measures = BTreeMap::new();
+        let mut put = |k: &str, v: serde_json::Value| {
+            measures.insert(k.to_string(), v);
+        };
+        put("tracking", json(&self.tracking));
+        put("drop", json(&self.drop));
+        put("penetration", json(&self.penetration));
+        put("stability", json(&self.stability));
+        put("release", json(&self.release));
+        put("replay", json(&self.replay));
+        put("timing_s", json(&self.timing_s));
+        put(
+            "drop_frame",
+            serde_json::json!(self.drop.as_ref().map(|d| d.frame)),
+        );
+        put(
+            "released_on_support",
+            serde_json::json!(self.release.as_ref().map(|r| r.rests_on_support)),
+        );
+        PhysicsSummary {
+            verdict: self.verdict().to_string(),
+            reasons: self.reasons.clone(),
+            measures,
+        }
+    }
+}
+
+/// A plain struct as a JSON value (serialising these types cannot fail).
+fn json<T: Serialize>(v: &T) -> serde_json::Value {
+    serde_json::to_value(v).unwrap_or(serde_json::Value::Null)
+}

@@ -1,0 +1,101 @@
+//! The verdict: every failed check as a sentence naming the frame and the value.
+
+use super::params::Params;
+use super::report::{DropCause, Penetration, PhysicsReport};
+
+/// The reasons `report` fails under `params`, in a fixed order: divergence, drop, tracking,
+/// penetration (hand-object, hand-barrier, object-barrier), stability, release.
+pub(crate) fn reasons(report: &PhysicsReport, params: &Params) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(f) = report.replay.diverged_frame {
+        out.push(format!(
+            "the simulation diverged at frame {f} (the object pose became non-finite)"
+        ));
+    }
+    if let Some(d) = &report.drop {
+        out.push(match d.cause {
+            DropCause::LostContact => format!(
+                "object dropped at frame {}: position error {:.1} mm > {:.1} mm with no hand contact since frame {}",
+                d.frame,
+                d.position_error_mm,
+                params.drop_error_m * 1e3,
+                d.contact_lost_frame.unwrap_or(d.frame)
+            ),
+            DropCause::Slipped => format!(
+                "object slipped in the grasp at frame {}: position error {:.1} mm > {:.1} mm while the hand touches it",
+                d.frame,
+                d.position_error_mm,
+                params.drop_error_m * 1e3
+            ),
+        });
+    }
+    let t = &report.tracking;
+    if t.mean_position_error_mm > params.max_mean_position_error_m * 1e3 {
+        out.push(format!(
+            "mean object position error {:.1} mm > {:.1} mm",
+            t.mean_position_error_mm,
+            params.max_mean_position_error_m * 1e3
+        ));
+    }
+    if t.max_position_error_mm > params.max_position_error_m * 1e3 {
+        out.push(format!(
+            "object position error {:.1} mm at frame {} > {:.1} mm",
+            t.max_position_error_mm,
+            t.max_position_error_frame,
+            params.max_position_error_m * 1e3
+        ));
+    }
+    if t.mean_rotation_error_deg > params.max_mean_rotation_error_deg {
+        out.push(format!(
+            "mean object rotation error {:.1}° > {:.1}° (largest {:.1}° at frame {})",
+            t.mean_rotation_error_deg,
+            params.max_mean_rotation_error_deg,
+            t.max_rotation_error_deg,
+            t.max_rotation_error_frame
+        ));
+    }
+    let p = &report.penetration;
+    penetration(&mut out, "hand-object", &p.hand_object);
+    penetration(&mut out, "hand-barrier", &p.hand_barrier);
+    penetration(&mut out, "object-barrier", &p.object_barrier);
+    if let Some(s) = &report.stability
+        && s.max_mm > params.max_sim_displacement_m * 1e3
+    {
+        out.push(format!(
+            "simulation displacement {:.1} mm at frame {} > {:.1} mm (mean {:.1} mm over {} sampled frames)",
+            s.max_mm,
+            s.max_frame.unwrap_or(0),
+            params.max_sim_displacement_m * 1e3,
+            s.mean_mm,
+            s.frames.len()
+        ));
+    }
+    if let Some(r) = &report.release
+        && !r.rests_on_support
+    {
+        let nearest = match (&r.support, r.support_gap_mm) {
+            (Some(s), Some(g)) => format!("nearest support {s:?} {g:.1} mm away"),
+            _ => "the scene has no support".to_string(),
+        };
+        out.push(format!(
+            "released unsupported: after the last contact frame {} the object ends not resting on a support (speed {:.3} m/s, {nearest})",
+            r.frame, r.final_speed_m_s
+        ));
+    }
+    out
+}
+
+fn penetration(out: &mut Vec<String>, what: &str, p: &Penetration) {
+    if let Some(limit) = p.limit_mm
+        && p.max_mm > limit
+    {
+        out.push(format!(
+            "{what} penetration {:.1} mm at frame {} ({}) > {:.1} mm; {} frames over the limit",
+            p.max_mm,
+            p.worst_frame.unwrap_or(0),
+            p.worst_pair.as_deref().unwrap_or("?"),
+            limit,
+            p.frames_over_limit
+        ));
+    }
+}

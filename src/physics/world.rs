@@ -1,0 +1,198 @@
+//! The one world struct of the physics stage: a Rapier [`PhysicsWorld`] with the hand, the
+//! object and the fixed scene, and the few operations the replay needs.
+//!
+//! Bodies:
+//! - every hand link with collision geometry is a kinematic position-based body; its
+//!   colliders carry the finger skin ([`super::Params::finger_skin_m`]) and the hand friction
+//!   with the `Max` combine rule;
+//! - the object is one dynamic body whose collider is the compound of its convex parts, with
+//!   the demonstration's mass (inertia from the parts at uniform density); it never sleeps,
+//!   so a slowly closing hand always wakes it;
+//! - supports and the checked barriers are fixed bodies, one collider each.
+//!
+//! Each collider's `user_data` tags what it is ([`Tag`]), so contact pairs of the object can
+//! be told apart without a map. Kinematic-vs-fixed pairs make no contacts in Rapier: the hand
+//! passes through the scene here, and its penetration is measured with parry queries in
+//! [`super::checks`].
+
+use nalgebra::{Isometry3, Vector3};
+use rapier3d_f64::prelude::{
+    CoefficientCombineRule, ColliderBuilder, ColliderHandle, IntegrationParameters,
+    PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
+};
+
+use super::object::ObjectShape;
+use super::params::Params;
+use crate::math::convert::{from_pose, to_pose, to_vec};
+use crate::robot::{CollisionShape, Robot};
+
+/// What a collider belongs to (stored in its `user_data`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Tag {
+    /// A hand link's collider (kinematic).
+    Hand = 1,
+    /// The object's compound collider (dynamic).
+    Object = 2,
+    /// A support item (fixed).
+    Support = 3,
+    /// A checked barrier item (fixed).
+    Barrier = 4,
+}
+
+/// A fixed scene item to put into the world.
+#[derive(Clone, Copy, Debug)]
+pub struct FixedItem<'a> {
+    /// The item's shape, world frame.
+    pub shape: &'a CollisionShape,
+    /// [`Tag::Support`] or [`Tag::Barrier`].
+    pub tag: Tag,
+}
+
+#[derive(Debug)]
+struct HandBody {
+    /// Index into the link poses.
+    link: usize,
+    body: RigidBodyHandle,
+}
+
+/// The replay world (see the module docs).
+pub struct ReplayWorld {
+    /// All Rapier state (public for tests and diagnostics).
+    pub world: PhysicsWorld,
+    hand: Vec<HandBody>,
+    /// The object's body.
+    pub object: RigidBodyHandle,
+    /// The object's collider.
+    pub object_collider: ColliderHandle,
+}
+
+impl std::fmt::Debug for ReplayWorld {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ReplayWorld")
+            .field("hand", &self.hand)
+            .field("object", &self.object)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ReplayWorld {
+    /// A world with the hand at `link_poses`, the object at `object_pose` and the fixed
+    /// items, stepping by `dt` seconds with gravity `gravity` [m/s²].
+    pub fn new(
+        robot: &Robot,
+        link_poses: &[Isometry3<f64>],
+        object: &ObjectShape,
+        object_pose: &Isometry3<f64>,
+        mass: f64,
+        fixed: &[FixedItem<'_>],
+        params: &Params,
+        dt: f64,
+        gravity: Vector3<f64>,
+    ) -> ReplayWorld {
+        let mut world = PhysicsWorld {
+            gravity: to_vec(&gravity),
+            integration_parameters: IntegrationParameters {
+                dt,
+                num_solver_iterations: params.solver_iterations,
+                ..IntegrationParameters::default()
+            },
+            ..PhysicsWorld::default()
+        };
+        let mut hand = Vec::new();
+        for (i, link) in robot.links().iter().enumerate() {
+            if link.collision.is_empty() {
+                continue;
+            }
+            let body = world.insert_body(
+                RigidBodyBuilder::kinematic_position_based().pose(to_pose(&link_poses[i])),
+            );
+            for cs in &link.collision {
+                let collider = ColliderBuilder::new(cs.shape.clone())
+                    .position(to_pose(&cs.shape_pose))
+                    .friction(params.hand_friction)
+                    .friction_combine_rule(CoefficientCombineRule::Max)
+                    .contact_skin(params.finger_skin_m)
+                    .user_data(Tag::Hand as u128);
+                world.insert_collider(collider, Some(body));
+            }
+            hand.push(HandBody { link: i, body });
+        }
+        let (object_body, object_collider) = world.insert(
+            RigidBodyBuilder::dynamic()
+                .pose(to_pose(object_pose))
+                .can_sleep(false),
+            ColliderBuilder::new(object.compound.clone())
+                .mass(mass)
+                .friction(params.object_friction)
+                .user_data(Tag::Object as u128),
+        );
+        for item in fixed {
+            world.insert(
+                RigidBodyBuilder::fixed(),
+                ColliderBuilder::new(item.shape.shape.clone())
+                    .position(to_pose(&item.shape.shape_pose))
+                    .friction(params.object_friction)
+                    .user_data(item.tag as u128),
+            );
+        }
+        ReplayWorld {
+            world,
+            hand,
+            object: object_body,
+            object_collider,
+        }
+    }
+
+    /// Sets the pose every hand link reaches at the end of the next step.
+    pub fn drive_hand(&mut self, link_poses: &[Isometry3<f64>]) {
+        for h in &self.hand {
+            if let Some(b) = self.world.bodies.get_mut(h.body) {
+                b.set_next_kinematic_position(to_pose(&link_poses[h.link]));
+            }
+        }
+    }
+
+    /// Advances the simulation by one step.
+    pub fn step(&mut self) {
+        self.world.step();
+    }
+
+    /// The object's world pose.
+    pub fn object_pose(&self) -> Isometry3<f64> {
+        from_pose(self.world.bodies[self.object].position())
+    }
+
+    /// The object's linear speed [m/s].
+    pub fn object_speed(&self) -> f64 {
+        self.world.bodies[self.object].linvel().length()
+    }
+
+    /// The smallest contact distance [m] between the object and a collider tagged `tag`,
+    /// from the narrow phase's manifolds (negative = penetrating; raw geometry, without
+    /// skins). `None` when no such pair has a contact point, i.e. they are farther apart
+    /// than the prediction distance plus skins.
+    pub fn object_gap(&self, tag: Tag) -> Option<f64> {
+        let mut best: Option<f64> = None;
+        for pair in self
+            .world
+            .narrow_phase
+            .contact_pairs_with(self.object_collider)
+        {
+            let other = if pair.collider1 == self.object_collider {
+                pair.collider2
+            } else {
+                pair.collider1
+            };
+            if self.world.colliders.get(other).map(|c| c.user_data) != Some(tag as u128) {
+                continue;
+            }
+            for m in pair.manifolds() {
+                for p in &m.points {
+                    best = Some(best.map_or(p.dist, |b| b.min(p.dist)));
+                }
+            }
+        }
+        best
+    }
+}

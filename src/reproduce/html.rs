@@ -1,0 +1,347 @@
+//! `index.html`: the tables and SVG plots of a reproduction, one self-contained page that works
+//! offline (no script, no CDN; plots are inline SVG drawn with plotters).
+//!
+//! Plots: the timewarp (input frame against output time, the paper's Allegro figure (c)); object
+//! and wrist height over time for the baseline against contact IK (the paper's baseline
+//! figure); per-frame D_C; per-frame physics tracking error; the robustness curves.
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::tables::{self, Table};
+use super::{ROBUSTNESS_CONFIG, Reproduction};
+use crate::model::json::write_atomic;
+use crate::output::frames::FrameRow;
+use crate::{Error, Result};
+
+const W: u32 = 760;
+const H: u32 = 300;
+
+/// A named series of (x, y) points.
+struct Series<'a> {
+    label: &'a str,
+    color: RGBColor,
+    points: Vec<(f64, f64)>,
+}
+
+fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        let _ = root.fill(&WHITE);
+        let pts = series.iter().flat_map(|s| s.points.iter());
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &(x, y) in pts.filter(|(x, y)| x.is_finite() && y.is_finite()) {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        if x0 > x1 {
+            (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+        }
+        if (y1 - y0).abs() < 1e-12 {
+            y1 = y0 + 1.0;
+        }
+        let pad = 0.05 * (y1 - y0);
+        let chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 16))
+            .margin(8)
+            .x_label_area_size(32)
+            .y_label_area_size(56)
+            .build_cartesian_2d(x0..x1.max(x0 + 1e-9), (y0 - pad)..(y1 + pad));
+        let Ok(mut chart) = chart else {
+            return svg_error(title);
+        };
+        let _ = chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw();
+        for s in series {
+            let color = s.color;
+            if let Ok(a) = chart.draw_series(LineSeries::new(
+                s.points
+                    .iter()
+                    .copied()
+                    .filter(|(x, y)| x.is_finite() && y.is_finite()),
+                color.stroke_width(2),
+            )) {
+                a.label(s.label).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
+            }
+        }
+        let _ = chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.3))
+            .draw();
+        let _ = root.present();
+    }
+    svg
+}
+
+fn svg_error(title: &str) -> String {
+    format!("<p>plot {title:?} could not be drawn</p>")
+}
+
+fn read_frames(dir: &Path) -> Option<Vec<FrameRow>> {
+    let mut r = csv::Reader::from_path(dir.join("frames.csv")).ok()?;
+    r.deserialize()
+        .collect::<std::result::Result<Vec<FrameRow>, _>>()
+        .ok()
+}
+
+fn read_timewarp(dir: &Path) -> Option<Vec<f64>> {
+    let entry = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok())
+        .find(|e| e.file_name().to_string_lossy().ends_with(".demo.json"))?;
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(entry.path()).ok()?).ok()?;
+    v.get("timewarp")?
+        .as_array()?
+        .iter()
+        .map(|x| x.as_f64())
+        .collect()
+}
+
+const BLUE: RGBColor = RGBColor(31, 119, 180);
+const ORANGE: RGBColor = RGBColor(255, 127, 14);
+const GREEN: RGBColor = RGBColor(44, 160, 44);
+const GREY: RGBColor = RGBColor(150, 150, 150);
+
+/// The config whose timewarp is least uniform: where the baseline has most to interpolate.
+fn showcase(rep: &Reproduction) -> Option<String> {
+    rep.runs
+        .iter()
+        .filter(|r| r.variant.name == "lm_3.5mm" && r.report.error.is_none())
+        .max_by(|a, b| {
+            a.report
+                .metrics
+                .timewarp_discrepancy
+                .total_cmp(&b.report.metrics.timewarp_discrepancy)
+        })
+        .map(|r| r.config.clone())
+}
+
+fn run_dir(rep: &Reproduction, config: &str, variant: &str) -> Option<std::path::PathBuf> {
+    rep.runs
+        .iter()
+        .find(|r| r.config == config && r.variant.name == variant && r.report.error.is_none())
+        .map(|r| r.dir.clone())
+}
+
+fn plots(rep: &Reproduction) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let tw_config = ["allegro_apple_plate"]
+        .into_iter()
+        .map(String::from)
+        .find(|c| run_dir(rep, c, "lm_3.5mm").is_some())
+        .or_else(|| showcase(rep));
+    if let Some(c) = tw_config
+        && let Some(tau) = run_dir(rep, &c, "lm_3.5mm").and_then(|d| read_timewarp(&d))
+    {
+        let n = tau.len();
+        out.push((
+            format!("Timewarp of {c}"),
+            line_chart(
+                &format!("timewarp τ: {c}"),
+                "input frame",
+                "output frame",
+                &[
+                    Series {
+                        label: "τ(input frame)",
+                        color: BLUE,
+                        points: tau
+                            .iter()
+                            .enumerate()
+                            .map(|(i, &t)| (i as f64, t))
+                            .collect(),
+                    },
+                    Series {
+                        label: "uniform",
+                        color: GREY,
+                        points: vec![(0.0, 0.0), ((n - 1) as f64, *tau.last().unwrap_or(&0.0))],
+                    },
+                ],
+            ),
+        ));
+    }
+    if let Some(c) = showcase(rep) {
+        let lm = run_dir(rep, &c, "lm_3.5mm").and_then(|d| read_frames(&d));
+        let base = run_dir(rep, &c, "baseline").and_then(|d| read_frames(&d));
+        if let (Some(lm), Some(base)) = (lm, base) {
+            let col = |rows: &[FrameRow], f: fn(&FrameRow) -> Option<f64>| -> Vec<(f64, f64)> {
+                rows.iter()
+                    .filter_map(|r| f(r).map(|v| (r.frame as f64, v)))
+                    .collect()
+            };
+            out.push((
+                format!("Heights over time, baseline against contact IK ({c})"),
+                line_chart(
+                    &format!("object and wrist height: {c}"),
+                    "output frame",
+                    "z [m]",
+                    &[
+                        Series {
+                            label: "object",
+                            color: GREY,
+                            points: col(&lm, |r| Some(r.object_z)),
+                        },
+                        Series {
+                            label: "wrist, baseline",
+                            color: ORANGE,
+                            points: col(&base, |r| Some(r.wrist_z)),
+                        },
+                        Series {
+                            label: "wrist, contact IK",
+                            color: BLUE,
+                            points: col(&lm, |r| Some(r.wrist_z)),
+                        },
+                    ],
+                ),
+            ));
+            out.push((
+                format!("Per-frame D_C ({c})"),
+                line_chart(
+                    &format!("contact distance per frame: {c}"),
+                    "output frame",
+                    "D_C [mm]",
+                    &[
+                        Series {
+                            label: "baseline",
+                            color: ORANGE,
+                            points: col(&base, |r| r.d_c_mm),
+                        },
+                        Series {
+                            label: "contact IK (3.5 mm)",
+                            color: BLUE,
+                            points: col(&lm, |r| r.d_c_mm),
+                        },
+                    ],
+                ),
+            ));
+            let track_lm = col(&lm, |r| r.physics_position_error_mm);
+            let track_base = col(&base, |r| r.physics_position_error_mm);
+            if !track_lm.is_empty() || !track_base.is_empty() {
+                out.push((
+                    format!("Physics tracking error ({c})"),
+                    line_chart(
+                        &format!("simulated vs warped object position: {c}"),
+                        "output frame",
+                        "error [mm]",
+                        &[
+                            Series {
+                                label: "baseline",
+                                color: ORANGE,
+                                points: track_base,
+                            },
+                            Series {
+                                label: "contact IK",
+                                color: BLUE,
+                                points: track_lm,
+                            },
+                        ],
+                    ),
+                ));
+            }
+        }
+    }
+    let curve = |kind: &str| -> Vec<(f64, f64)> {
+        (0..=100)
+            .step_by(10)
+            .filter_map(|pct| {
+                rep.runs
+                    .iter()
+                    .find(|r| {
+                        r.config == ROBUSTNESS_CONFIG
+                            && r.variant.name == format!("robust_{kind}_{pct:03}")
+                            && r.report.error.is_none()
+                    })
+                    .map(|r| (pct as f64, r.report.metrics.d_c_mm.warped))
+            })
+            .collect()
+    };
+    let (del, per) = (curve("delete"), curve("permute"));
+    if !del.is_empty() {
+        out.push((
+            format!("Robustness ({ROBUSTNESS_CONFIG})"),
+            line_chart(
+                &format!("robustness: {ROBUSTNESS_CONFIG}"),
+                "corrupted correspondences [%]",
+                "D_C [mm]",
+                &[
+                    Series {
+                        label: "deleted",
+                        color: GREEN,
+                        points: del,
+                    },
+                    Series {
+                        label: "permuted",
+                        color: ORANGE,
+                        points: per,
+                    },
+                ],
+            ),
+        ));
+    }
+    out
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+fn html_table(t: &Table) -> String {
+    let mut s = format!("<h3>{}</h3>\n<table>\n<tr>", escape(&t.title));
+    for h in &t.header {
+        s.push_str(&format!("<th>{}</th>", escape(h)));
+    }
+    s.push_str("</tr>\n");
+    for r in &t.rows {
+        s.push_str("<tr>");
+        for c in r {
+            let c = c.trim_matches('*');
+            s.push_str(&format!("<td>{}</td>", escape(c)));
+        }
+        s.push_str("</tr>\n");
+    }
+    s.push_str("</table>\n");
+    if !t.note.is_empty() {
+        s.push_str(&format!("<p class=\"note\">{}</p>\n", escape(&t.note)));
+    }
+    s
+}
+
+/// Writes `index.html` into the reproduction's folder.
+pub fn write_index(rep: &Reproduction) -> Result<()> {
+    let mut body = String::new();
+    body.push_str(&format!(
+        "<h1>dexwarp reproduce</h1>\n<p class=\"prov\">{}</p>\n",
+        escape(&tables::provenance(rep))
+    ));
+    body.push_str("<h2>Plots</h2>\n");
+    for (title, svg) in plots(rep) {
+        body.push_str(&format!(
+            "<figure><figcaption>{}</figcaption>\n{svg}\n</figure>\n",
+            escape(&title)
+        ));
+    }
+    body.push_str("<h2>Tables</h2>\n");
+    for t in tables::all(rep) {
+        body.push_str(&html_table(&t));
+    }
+    let page = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>dexwarp reproduce</title>\n<style>\nbody {{ font-family: sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }}\ntable {{ border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.9em; }}\nth, td {{ border: 1px solid #ccc; padding: 3px 8px; text-align: right; }}\nth:first-child, td:first-child {{ text-align: left; }}\nfigure {{ margin: 1em 0; }}\nfigcaption {{ font-weight: bold; margin-bottom: 0.3em; }}\n.prov, .note {{ color: #555; font-size: 0.9em; }}\n</style>\n</head>\n<body>\n{body}</body>\n</html>\n"
+    );
+    let path = rep.out.join("index.html");
+    write_atomic(&path, page.as_bytes()).map_err(|e| match e {
+        Error::Io { source, .. } => Error::write(&path, source),
+        other => other,
+    })
+}

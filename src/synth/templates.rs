@@ -1,0 +1,318 @@
+//! The grasps synthesis knows: where each hand family puts its pads on each object.
+//!
+//! Object frames are those of [`super::objects`] (origin at the main body's centroid, `z` up;
+//! pan and mug handles along `+x`, the teapot handle along `−x`). Hand frames follow
+//! `robots/README.md`: `+x` the palm normal, `+z` toward the fingers, `+y` toward the thumb;
+//! every `<finger>_tip` frame is the centre of the pad's hemisphere, the pad facing `+x`.
+//!
+//! | hand | object | grasp |
+//! |---|---|---|
+//! | five-finger | cube | from above: thumb on the near face, index and middle on the far face |
+//! | five-finger | frying pan | power grasp of the handle: palm on top, fingers wrapped under, thumb along the top toward the pan |
+//! | five-finger | mug | side wrap of the body (handle away): palm on the near side, fingers around one side, thumb on the other |
+//! | five-finger | teapot | handle pinch: thumb on one side of the handle's outer bar, index and middle on the other |
+//! | four-finger | apple | fingertip grasp from above: three fingers on the far side, thumb on the near side |
+//! | four-finger | cube | as the five-finger cube grasp |
+//! | gripper | small box, cube | jaws on two opposite faces, from above |
+
+use super::grasp::{GraspTemplate, HandFamily, PadTarget};
+use super::objects::ObjectKind;
+
+/// Pad radii [m] (`robots/README.md`).
+const HUMAN_PAD: [(&str, f64); 5] = [
+    ("thumb_tip", 0.0088),
+    ("index_tip", 0.0075),
+    ("middle_tip", 0.0075),
+    ("ring_tip", 0.0072),
+    ("little_tip", 0.0068),
+];
+const ALLEGRO_PAD: f64 = 0.014;
+
+fn human_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
+    let r = HUMAN_PAD
+        .iter()
+        .find(|(n, _)| *n == tip)
+        .map_or(0.0075, |(_, r)| *r);
+    PadTarget {
+        link: tip,
+        hand_point: [r, 0.0, 0.0],
+        radius: r,
+        object_point,
+    }
+}
+
+fn allegro_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
+    PadTarget {
+        link: tip,
+        hand_point: [ALLEGRO_PAD, 0.0, 0.0],
+        radius: ALLEGRO_PAD,
+        object_point,
+    }
+}
+
+/// A palm point of the human hand: on the palm box's palm-side face (`x` = 14 mm).
+fn human_palm(y: f64, z: f64, object_point: [f64; 3]) -> PadTarget {
+    PadTarget {
+        link: "palm",
+        hand_point: [0.014, y, z],
+        radius: 0.0,
+        object_point,
+    }
+}
+
+/// Flexion offsets opening every finger of the human hand.
+fn human_open(fingers: &[&'static str], amount: f64) -> Vec<(&'static str, f64)> {
+    let mut out = Vec::new();
+    for f in fingers {
+        let (mcp, pip, dip): (&'static str, &'static str, &'static str) = match *f {
+            "index" => ("index_mcp_flex", "index_pip_flex", "index_dip_flex"),
+            "middle" => ("middle_mcp_flex", "middle_pip_flex", "middle_dip_flex"),
+            "ring" => ("ring_mcp_flex", "ring_pip_flex", "ring_dip_flex"),
+            "little" => ("little_mcp_flex", "little_pip_flex", "little_dip_flex"),
+            _ => continue,
+        };
+        out.push((mcp, -0.5 * amount));
+        out.push((pip, -amount));
+        out.push((dip, -0.6 * amount));
+    }
+    out
+}
+
+/// A curled human finger: `(mcp, pip, dip)` flexion.
+fn human_finger(f: &'static str, mcp: f64, pip: f64, dip: f64) -> Vec<(&'static str, f64)> {
+    let names: [&'static str; 3] = match f {
+        "index" => ["index_mcp_flex", "index_pip_flex", "index_dip_flex"],
+        "middle" => ["middle_mcp_flex", "middle_pip_flex", "middle_dip_flex"],
+        "ring" => ["ring_mcp_flex", "ring_pip_flex", "ring_dip_flex"],
+        _ => ["little_mcp_flex", "little_pip_flex", "little_dip_flex"],
+    };
+    vec![(names[0], mcp), (names[1], pip), (names[2], dip)]
+}
+
+fn human(object: ObjectKind) -> Option<GraspTemplate> {
+    let all = ["index", "middle", "ring", "little"];
+    let t = match object {
+        ObjectKind::Cube => GraspTemplate {
+            palm_normal: [0.0, 0.0, -1.0],
+            fingers: [1.0, 0.0, 0.0],
+            preshape: [
+                human_finger("index", 0.8, 0.7, 0.4),
+                human_finger("middle", 0.8, 0.7, 0.4),
+                human_finger("ring", 0.6, 0.6, 0.3),
+                human_finger("little", 0.6, 0.6, 0.3),
+                vec![
+                    ("thumb_cmc_abd", 0.6),
+                    ("thumb_cmc_flex", 0.3),
+                    ("thumb_mcp_flex", 0.2),
+                    ("thumb_ip_flex", 0.2),
+                ],
+            ]
+            .concat(),
+            targets: vec![
+                human_pad("thumb_tip", [-0.04, 0.0, 0.01]),
+                human_pad("index_tip", [0.04, 0.013, 0.01]),
+                human_pad("middle_tip", [0.04, -0.011, 0.008]),
+            ],
+            open: [
+                human_open(&all, 0.5),
+                vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
+            ]
+            .concat(),
+            approach: [-0.5, 0.0, 1.0],
+        },
+        ObjectKind::FryingPan => GraspTemplate {
+            palm_normal: [0.0, 0.0, -1.0],
+            fingers: [0.0, 1.0, 0.0],
+            preshape: [
+                human_finger("index", 1.0, 1.3, 0.6),
+                human_finger("middle", 1.0, 1.3, 0.6),
+                human_finger("ring", 1.0, 1.3, 0.6),
+                human_finger("little", 1.0, 1.3, 0.6),
+                vec![("thumb_cmc_abd", 0.2), ("thumb_cmc_flex", 0.2)],
+            ]
+            .concat(),
+            targets: vec![
+                human_palm(0.0, 0.065, [0.245, 0.0, 0.08]),
+                human_pad("thumb_tip", [0.175, 0.0, 0.08]),
+                human_pad("index_tip", [0.205, -0.004, -0.02]),
+                human_pad("middle_tip", [0.228, -0.004, -0.02]),
+                human_pad("ring_tip", [0.25, -0.004, -0.02]),
+                human_pad("little_tip", [0.27, -0.004, -0.02]),
+            ],
+            open: [human_open(&all, 0.9), vec![("thumb_cmc_abd", 0.2)]].concat(),
+            approach: [0.0, 0.3, 1.0],
+        },
+        ObjectKind::Mug => GraspTemplate {
+            palm_normal: [1.0, 0.0, 0.0],
+            fingers: [0.0, -1.0, 0.0],
+            preshape: [
+                human_finger("index", 0.6, 0.9, 0.5),
+                human_finger("middle", 0.6, 0.9, 0.5),
+                human_finger("ring", 0.6, 0.9, 0.5),
+                human_finger("little", 0.6, 0.9, 0.5),
+                vec![
+                    ("thumb_cmc_abd", 0.8),
+                    ("thumb_cmc_flex", 0.5),
+                    ("thumb_mcp_flex", 0.2),
+                    ("thumb_ip_flex", 0.2),
+                ],
+            ]
+            .concat(),
+            targets: vec![
+                human_palm(0.0, 0.045, [-0.06, 0.0, 0.01]),
+                human_pad("index_tip", [0.02, -0.05, 0.03]),
+                human_pad("middle_tip", [0.025, -0.05, 0.008]),
+                human_pad("ring_tip", [0.025, -0.05, -0.012]),
+                human_pad("little_tip", [0.015, -0.05, -0.028]),
+                human_pad("thumb_tip", [-0.025, 0.05, 0.03]),
+            ],
+            open: [
+                human_open(&all, 0.6),
+                vec![("thumb_cmc_flex", -0.4), ("thumb_cmc_abd", -0.2)],
+            ]
+            .concat(),
+            approach: [-1.0, 0.0, 0.4],
+        },
+        ObjectKind::Teapot => GraspTemplate {
+            palm_normal: [1.0, 0.0, 0.0],
+            fingers: [0.0, 0.0, -1.0],
+            preshape: [
+                human_finger("index", 0.8, 0.7, 0.4),
+                human_finger("middle", 0.8, 0.7, 0.4),
+                human_finger("ring", 0.7, 0.7, 0.4),
+                human_finger("little", 0.7, 0.7, 0.4),
+                vec![
+                    ("thumb_cmc_abd", 0.6),
+                    ("thumb_cmc_flex", 0.3),
+                    ("thumb_mcp_flex", 0.2),
+                    ("thumb_ip_flex", 0.2),
+                ],
+            ]
+            .concat(),
+            targets: vec![
+                human_pad("thumb_tip", [-0.112, 0.03, 0.015]),
+                human_pad("index_tip", [-0.112, -0.03, 0.02]),
+                human_pad("middle_tip", [-0.112, -0.03, 0.0]),
+            ],
+            open: [
+                human_open(&all, 0.5),
+                vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
+            ]
+            .concat(),
+            approach: [-1.0, 0.0, 0.5],
+        },
+        _ => return None,
+    };
+    Some(t)
+}
+
+fn allegro(object: ObjectKind) -> Option<GraspTemplate> {
+    let curl = |f: &'static str, a: f64, b: f64, c: f64| -> Vec<(&'static str, f64)> {
+        let names: [&'static str; 3] = match f {
+            "index" => ["index_joint_1", "index_joint_2", "index_joint_3"],
+            "middle" => ["middle_joint_1", "middle_joint_2", "middle_joint_3"],
+            _ => ["ring_joint_1", "ring_joint_2", "ring_joint_3"],
+        };
+        vec![(names[0], a), (names[1], b), (names[2], c)]
+    };
+    let preshape = [
+        curl("index", 0.9, 0.6, 0.4),
+        curl("middle", 0.9, 0.6, 0.4),
+        curl("ring", 0.9, 0.6, 0.4),
+        vec![
+            ("thumb_joint_0", 1.2),
+            ("thumb_joint_1", 0.4),
+            ("thumb_joint_2", 0.4),
+            ("thumb_joint_3", 0.3),
+        ],
+    ]
+    .concat();
+    let open = [
+        curl("index", -0.4, -0.3, -0.2),
+        curl("middle", -0.4, -0.3, -0.2),
+        curl("ring", -0.4, -0.3, -0.2),
+        vec![("thumb_joint_1", -0.3), ("thumb_joint_2", -0.3)],
+    ]
+    .concat();
+    let (targets, approach) = match object {
+        ObjectKind::Apple => (
+            vec![
+                allegro_pad("index_tip", [0.035, 0.03, 0.012]),
+                allegro_pad("middle_tip", [0.045, 0.0, 0.012]),
+                allegro_pad("ring_tip", [0.035, -0.03, 0.012]),
+                allegro_pad("thumb_tip", [-0.045, 0.01, 0.012]),
+            ],
+            [-0.4, 0.0, 1.0],
+        ),
+        ObjectKind::Cube => (
+            vec![
+                allegro_pad("index_tip", [0.04, 0.018, 0.01]),
+                allegro_pad("middle_tip", [0.04, -0.005, 0.01]),
+                allegro_pad("thumb_tip", [-0.04, 0.005, 0.01]),
+            ],
+            [-0.4, 0.0, 1.0],
+        ),
+        _ => return None,
+    };
+    Some(GraspTemplate {
+        palm_normal: [0.0, 0.0, -1.0],
+        fingers: [1.0, 0.0, 0.0],
+        preshape,
+        targets,
+        open,
+        approach,
+    })
+}
+
+fn gripper(object: ObjectKind) -> Option<GraspTemplate> {
+    let half = match object {
+        ObjectKind::SmallBox => 0.02,
+        ObjectKind::Cube => 0.03,
+        _ => return None,
+    };
+    // Gripper frame: +z approach (down, object -z), jaws along ±y (object ±y), +x = y × z
+    // (object -x). A pad point (a, 0, 45 mm + c) of a jaw lands on (-a, ±half, z0 - c).
+    let z0 = 0.008;
+    let mut targets = Vec::new();
+    for (a, c) in [
+        (0.0, 0.0),
+        (0.006, 0.006),
+        (-0.006, 0.006),
+        (0.006, -0.006),
+        (-0.006, -0.006),
+    ] {
+        for (link, side) in [("left_finger", 1.0), ("right_finger", -1.0)] {
+            targets.push(PadTarget {
+                link,
+                hand_point: [a, 0.0, 0.045 + c],
+                radius: 0.0,
+                object_point: [-a, side * (half + 0.01), z0 - c],
+            });
+        }
+    }
+    Some(GraspTemplate {
+        palm_normal: [-1.0, 0.0, 0.0],
+        fingers: [0.0, 0.0, -1.0],
+        preshape: vec![("finger_joint1", half)],
+        targets,
+        open: vec![("finger_joint1", 0.012)],
+        approach: [0.0, 0.0, 1.0],
+    })
+}
+
+/// The grasp of `object` by a hand of `family`, if synthesis knows one.
+pub fn template(family: HandFamily, object: ObjectKind) -> Option<GraspTemplate> {
+    match family {
+        HandFamily::Human => human(object),
+        HandFamily::Allegro => allegro(object),
+        HandFamily::Gripper => gripper(object),
+    }
+}
+
+/// The objects a hand of `family` has a grasp for.
+pub fn objects_for(family: HandFamily) -> Vec<ObjectKind> {
+    ObjectKind::ALL
+        .into_iter()
+        .filter(|o| template(family, *o).is_some())
+        .collect()
+}

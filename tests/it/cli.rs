@@ -1,0 +1,241 @@
+//! The command line, end to end, in a temporary folder: every command, errors included.
+
+use std::process::{Command, Output};
+
+use dexwarp::model::demo::Demo;
+
+use crate::fixtures::{gripper_fixture, repo};
+
+fn dexwarp(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_dexwarp"))
+        .args(args)
+        .output()
+        .expect("run dexwarp")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn robot_prints_the_hand_and_refuses_bad_files() {
+    let o = dexwarp(&["robot", repo("robots/allegro_hand.urdf").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("16 actuated"), "{text}");
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.urdf");
+    std::fs::write(&bad, "<robot name='x'><link name='a'/><joint name='j' type='revolute'><parent link='a'/><child link='b'/></joint></robot>").unwrap();
+    let o = dexwarp(&["robot", bad.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("bad.urdf"), "{err}");
+    let o = dexwarp(&["robot", "/nonexistent/hand.urdf"]);
+    assert!(!o.status.success() && stderr(&o).contains("/nonexistent/hand.urdf"));
+}
+
+#[test]
+fn warp_writes_demo_report_and_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = gripper_fixture(dir.path());
+    let out = dir.path().join("out");
+    let o = dexwarp(&[
+        "warp",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--hand",
+        "baseline",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["format"], "dexwarp.report/1");
+    assert_eq!(report["frames_in"], 60);
+    assert!(
+        report["constraints"]["max_waypoint_error_mm"]
+            .as_f64()
+            .unwrap()
+            < 1e-3
+    );
+    assert!(report["metrics"]["d_c_mm"]["original"].as_f64().unwrap() < 1e-6);
+    let demo = Demo::load(&out.join("box_lift.demo.json"), &dexwarp::Limits::default()).unwrap();
+    assert_eq!(demo.timewarp.as_ref().unwrap().len(), 60);
+    let frames = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    assert!(
+        frames.starts_with("frame,source_frame,in_contact"),
+        "{frames}"
+    );
+    assert_eq!(frames.lines().count(), demo.frames.len() + 1);
+}
+
+#[test]
+fn warp_errors_name_the_file_and_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = gripper_fixture(dir.path());
+    let out = dir.path().join("out");
+    let o = dexwarp(&[
+        "warp",
+        "--config",
+        "missing.json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("missing.json"),
+        "{}",
+        stderr(&o)
+    );
+    let o = dexwarp(&[
+        "warp",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--threshold-mm=-2",
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("millimetres > 0"), "{}", stderr(&o));
+    assert!(!out.join("report.json").exists(), "no output on error");
+}
+
+#[test]
+fn batch_records_failures_skips_finished_and_shards() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = gripper_fixture(dir.path());
+    let manifest = dir.path().join("items.jsonl");
+    std::fs::write(
+        &manifest,
+        format!(
+            "# two good items and one whose config is missing\n{{\"config\": \"{}\", \"name\": \"a\"}}\n\n{{\"config\": \"lift.config.json\", \"name\": \"b\", \"threshold_mm\": 5}}\n{{\"config\": \"nope.json\", \"name\": \"c\"}}\n",
+            config.display()
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("batch");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "batch",
+            manifest.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--jobs",
+            "2",
+        ];
+        args.extend_from_slice(extra);
+        dexwarp(&args)
+    };
+    let o = run(&[]);
+    assert!(!o.status.success(), "a failed item makes the exit non-zero");
+    assert!(stderr(&o).contains("1 failed"), "{}", stderr(&o));
+    assert!(out.join("a/report.json").is_file() && out.join("b/report.json").is_file());
+    let failed: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("c/report.json")).unwrap()).unwrap();
+    assert!(
+        failed["error"].as_str().unwrap().contains("nope.json"),
+        "{failed}"
+    );
+    let summary = std::fs::read_to_string(out.join("batch.csv")).unwrap();
+    assert_eq!(summary.lines().count(), 4, "{summary}");
+    // A second run skips the finished items and retries the failed one.
+    let o = run(&[]);
+    assert!(stderr(&o).contains("0 done, 2 skipped"), "{}", stderr(&o));
+    // Shards split the items without overlap.
+    let o = run(&["--shard", "0/2", "--force"]);
+    let s0 = std::fs::read_to_string(out.join("batch.shard0of2.csv")).unwrap();
+    let _ = o;
+    let o = run(&["--shard", "1/2", "--force"]);
+    assert!(
+        o.status.success(),
+        "shard 1 has only item b: {}",
+        stderr(&o)
+    );
+    let s1 = std::fs::read_to_string(out.join("batch.shard1of2.csv")).unwrap();
+    assert!(
+        s0.contains("\na,") && s0.contains("\nc,") && !s0.contains("\nb,"),
+        "{s0}"
+    );
+    assert!(s1.contains("\nb,") && !s1.contains("\na,"), "{s1}");
+    // Bad shard specs and bad manifest lines are refused with a clear message.
+    for bad in ["2/2", "1", "a/b", "0/0"] {
+        let o = run(&["--shard", bad]);
+        assert!(
+            !o.status.success() && stderr(&o).contains("K/N"),
+            "{bad}: {}",
+            stderr(&o)
+        );
+    }
+    std::fs::write(
+        &manifest,
+        "{\"config\": \"lift.config.json\"}\n{\"confg\": \"x\"}\n",
+    )
+    .unwrap();
+    let o = run(&[]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("line 2") && stderr(&o).contains("confg"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn filter_keeps_and_explains() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = gripper_fixture(dir.path());
+    let out = dir.path().join("out");
+    for (name, extra) in [("x", None), ("y", Some("2.5"))] {
+        let d = out.join(name);
+        let mut args = vec![
+            "warp",
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+        ];
+        if let Some(t) = extra {
+            args.extend(["--threshold-mm", t]);
+        }
+        assert!(dexwarp(&args).status.success());
+    }
+    let keep = dir.path().join("keep.csv");
+    // Without physics in the reports, the default (physics required) drops both, saying why.
+    let o = dexwarp(&[
+        "filter",
+        out.to_str().unwrap(),
+        "--out",
+        keep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dropped = std::fs::read_to_string(dir.path().join("keep.dropped.csv")).unwrap();
+    assert_eq!(dropped.lines().count(), 3, "{dropped}");
+    assert!(dropped.contains("no physics verdict"), "{dropped}");
+    let o = dexwarp(&[
+        "filter",
+        out.to_str().unwrap(),
+        "--out",
+        keep.to_str().unwrap(),
+        "--no-physics",
+        "--max-waypoint-error-mm",
+        "1",
+    ]);
+    assert!(o.status.success());
+    assert_eq!(std::fs::read_to_string(&keep).unwrap().lines().count(), 3);
+    let o = dexwarp(&[
+        "filter",
+        dir.path().join("empty").to_str().unwrap(),
+        "--out",
+        keep.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let o = dexwarp(&[
+        "filter",
+        out.to_str().unwrap(),
+        "--out",
+        keep.to_str().unwrap(),
+        "--min-converged",
+        "2",
+    ]);
+    assert!(!o.status.success() && stderr(&o).contains("from 0 to 1"));
+}

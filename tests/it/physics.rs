@@ -1,0 +1,645 @@
+//! Physics stage: physical laws of the replay world, then trajectory-level verdicts.
+//!
+//! The laws run in [`ReplayWorld`] with the default [`Params`] (the configuration the
+//! reports use): two kinematic plates squeezing a cube lift it, a free cube falls as ½gt²,
+//! a released cube comes to rest on its support. The trajectory tests build a pick-and-place
+//! demonstration with `robots/parallel_gripper.urdf` and a small box, check that it passes,
+//! and that broken versions fail for the right reason. Every assertion prints measured vs
+//! expected.
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+use dexwarp::Limits;
+use dexwarp::geometry::Mesh;
+use dexwarp::model::demo::ObjectInfo;
+use dexwarp::model::scene::ShapeJson;
+use dexwarp::model::{Contact, Demo, Frame, Role, Scene, SceneItem};
+use dexwarp::physics::world::{FixedItem, ReplayWorld, Tag};
+use dexwarp::physics::{DropCause, Params, PhysicsReport, object_shape, validate};
+use dexwarp::robot::{CollisionShape, Robot, ShapeKind};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+
+const G: f64 = 9.81;
+
+/// A closed, outward-wound box centred on the origin with full edge lengths `size`.
+pub fn box_mesh(size: [f64; 3]) -> Mesh {
+    let h = Vector3::from(size) / 2.0;
+    let vertices = (0..8)
+        .map(|i| {
+            let s = |bit: usize| if i >> bit & 1 == 1 { 1.0 } else { -1.0 };
+            Point3::new(s(0) * h.x, s(1) * h.y, s(2) * h.z)
+        })
+        .collect();
+    // Vertex i has x from bit 0, y from bit 1, z from bit 2.
+    let triangles = vec![
+        [0, 3, 1],
+        [0, 2, 3],
+        [4, 5, 7],
+        [4, 7, 6],
+        [0, 1, 5],
+        [0, 5, 4],
+        [3, 2, 6],
+        [3, 6, 7],
+        [0, 4, 6],
+        [0, 6, 2],
+        [1, 3, 7],
+        [1, 7, 5],
+    ];
+    Mesh {
+        vertices,
+        triangles,
+    }
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A one-link "hand" made of two vertical plates facing each other across y, their inner
+/// faces at `±inner` from the link origin.
+fn plates(inner: f64) -> Robot {
+    let t = 0.01;
+    let y = inner + t / 2.0;
+    let urdf = format!(
+        r#"<robot name="plates"><link name="plates">
+        <collision><origin xyz="0 {y} 0"/><geometry><box size="0.05 {t} 0.05"/></geometry></collision>
+        <collision><origin xyz="0 -{y} 0"/><geometry><box size="0.05 {t} 0.05"/></geometry></collision>
+        </link></robot>"#
+    );
+    Robot::from_urdf_str(
+        &urdf,
+        Path::new("."),
+        Path::new("plates.urdf"),
+        &Limits::default(),
+    )
+    .expect("plates URDF")
+}
+
+fn table() -> CollisionShape {
+    CollisionShape::new(
+        ShapeKind::Box {
+            size: Vector3::new(1.0, 1.0, 0.04),
+        },
+        Isometry3::translation(0.0, 0.0, -0.02),
+    )
+    .unwrap()
+}
+
+fn at(x: f64, y: f64, z: f64) -> Isometry3<f64> {
+    Isometry3::translation(x, y, z)
+}
+
+fn smoothstep(u: f64) -> f64 {
+    let u = u.clamp(0.0, 1.0);
+    u * u * (3.0 - 2.0 * u)
+}
+
+/// Squeezes a 6 cm, 0.2 kg cube between the plates with the given overlap per side
+/// (negative = gap), lifts 20 cm in 1 s, holds 0.5 s; returns the final error [m].
+fn squeeze_lift(overlap: f64, params: &Params) -> f64 {
+    let robot = plates(0.03 - overlap);
+    let cube = object_shape(&box_mesh([0.06; 3]), &params.decomposition)
+        .unwrap()
+        .0;
+    let support = table();
+    let fixed = [FixedItem {
+        shape: &support,
+        tag: Tag::Support,
+    }];
+    let start = at(0.0, 0.0, 0.03);
+    let mut poses = robot.new_link_poses();
+    robot.forward_kinematics(&start, &[], &mut poses);
+    let dt = params.max_dt_s;
+    let mut world = ReplayWorld::new(
+        &robot,
+        &poses,
+        &cube,
+        &start,
+        0.2,
+        &fixed,
+        params,
+        dt,
+        Vector3::from(params.gravity),
+    );
+    let (lift, hold) = (240, 120);
+    for k in 1..=lift + hold {
+        let z = 0.03 + 0.2 * smoothstep(k as f64 / lift as f64);
+        robot.forward_kinematics(&at(0.0, 0.0, z), &[], &mut poses);
+        world.drive_hand(&poses);
+        world.step();
+    }
+    (world.object_pose().translation.vector - Vector3::new(0.0, 0.0, 0.23)).norm()
+}
+
+#[test]
+fn plates_squeezing_a_cube_lift_it_for_surfaces_within_2mm() {
+    let params = Params::default();
+    for overlap in [-0.002, -0.001, 0.0, 0.001, 0.002] {
+        let err = squeeze_lift(overlap, &params);
+        println!(
+            "plates at {:+.1} mm overlap: cube error after a 20 cm lift {:.3} mm",
+            overlap * 1e3,
+            err * 1e3
+        );
+        assert!(
+            err < 0.002,
+            "overlap {:+.1} mm: cube ended {:.3} mm from the plates' lift; expected < 2 mm",
+            overlap * 1e3,
+            err * 1e3
+        );
+    }
+}
+
+#[test]
+fn without_finger_skin_plates_at_the_surface_do_not_hold() {
+    // Why the softness model exists: rigid plates exactly at the surface grip nothing.
+    let params = Params {
+        finger_skin_m: 0.0,
+        ..Params::default()
+    };
+    let err = squeeze_lift(0.0, &params);
+    println!(
+        "no skin, plates at the surface: cube error {:.1} mm",
+        err * 1e3
+    );
+    assert!(
+        err > 0.1,
+        "rigid plates at 0 overlap moved the cube within {:.1} mm of the lift; expected it to stay behind (> 100 mm)",
+        err * 1e3
+    );
+}
+
+/// A world with the plates far away, a 6 cm cube at `z0` and the table.
+fn lone_cube(z0: f64, params: &Params) -> (ReplayWorld, Robot, Vec<Isometry3<f64>>) {
+    let robot = plates(0.03);
+    let mut poses = robot.new_link_poses();
+    robot.forward_kinematics(&at(5.0, 5.0, 5.0), &[], &mut poses);
+    let cube = object_shape(&box_mesh([0.06; 3]), &params.decomposition)
+        .unwrap()
+        .0;
+    let support = table();
+    let fixed = [FixedItem {
+        shape: &support,
+        tag: Tag::Support,
+    }];
+    let world = ReplayWorld::new(
+        &robot,
+        &poses,
+        &cube,
+        &at(0.0, 0.0, z0),
+        0.2,
+        &fixed,
+        params,
+        params.max_dt_s,
+        Vector3::from(params.gravity),
+    );
+    (world, robot, poses)
+}
+
+#[test]
+fn a_free_cube_falls_as_half_g_t_squared_until_it_hits_the_table() {
+    let params = Params::default();
+    let z0 = 1.0;
+    let (mut world, _robot, poses) = lone_cube(z0, &params);
+    let dt = params.max_dt_s;
+    // The cube's bottom reaches the table after a fall of z0 - 0.03.
+    let t_hit = (2.0 * (z0 - 0.03) / G).sqrt();
+    let mut worst: f64 = 0.0;
+    let mut k = 0;
+    while (k + 1) as f64 * dt < t_hit - 0.02 {
+        world.drive_hand(&poses);
+        world.step();
+        k += 1;
+        let t = k as f64 * dt;
+        let fallen = z0 - world.object_pose().translation.z;
+        let expected = 0.5 * G * t * t;
+        if t >= 0.1 {
+            let rel = (fallen - expected).abs() / expected;
+            worst = worst.max(rel);
+            assert!(
+                rel < 0.01,
+                "at t = {t:.3} s the cube fell {fallen:.5} m; ½gt² = {expected:.5} m (relative error {:.3} %, expected < 1 %)",
+                rel * 100.0
+            );
+        }
+    }
+    println!(
+        "free fall: largest relative error vs ½gt² over t in [0.1, {:.3}] s: {:.3} %",
+        k as f64 * dt,
+        worst * 100.0
+    );
+    // Then it hits the table and stops there.
+    for _ in 0..480 {
+        world.drive_hand(&poses);
+        world.step();
+    }
+    let z = world.object_pose().translation.z;
+    println!("after the impact the cube rests at z = {z:.5} m (expected 0.03)");
+    assert!(
+        (z - 0.03).abs() < 0.002,
+        "the cube ended at z = {z:.5} m; expected on the table at 0.03 m"
+    );
+}
+
+#[test]
+fn a_released_cube_comes_to_rest_on_its_support() {
+    let params = Params::default();
+    let (mut world, _robot, poses) = lone_cube(0.08, &params);
+    for _ in 0..360 {
+        world.drive_hand(&poses);
+        world.step();
+    }
+    let pose = world.object_pose();
+    let speed = world.object_speed();
+    let tilt = pose.rotation.angle().to_degrees();
+    let gap = world.object_gap(Tag::Support);
+    println!(
+        "released 5 cm above the table: rests at z = {:.5} m (expected 0.03), speed {speed:.2e} m/s, tilt {tilt:.3}°, contact distance {gap:?}",
+        pose.translation.z
+    );
+    assert!(
+        (pose.translation.z - 0.03).abs() < 0.001,
+        "rest height {:.5} m; expected 0.030 ± 0.001 m",
+        pose.translation.z
+    );
+    assert!(speed < 0.01, "speed {speed} m/s; expected at rest (< 0.01)");
+    assert!(tilt < 1.0, "tilt {tilt}°; expected < 1°");
+    assert!(
+        gap.is_some_and(|g| g.abs() < 0.002),
+        "contact distance to the support {gap:?}; expected touching"
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// Trajectory level: a parallel-gripper pick and place of a small box.
+
+/// Ways to break the demonstration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Variant {
+    Good,
+    /// The jaws open mid-carry while the demo still carries the object.
+    OpenMidCarry,
+    /// The gripper follows its path 3 cm beside the object.
+    Offset3cm,
+    /// The gripper's body passes through a barrier beam during the carry.
+    ThroughBarrier,
+}
+
+/// Box 3 x 4 x 6 cm (x, y, z), 0.1 kg, origin at its centre.
+const BOX: [f64; 3] = [0.03, 0.04, 0.06];
+const TCP_Z: f64 = 0.1034;
+const Q_OPEN: f64 = 0.03;
+/// Jaws closed 1 mm into each side of the box.
+const Q_CLOSED: f64 = 0.02 - 0.001;
+
+struct Case {
+    _dir: tempfile::TempDir,
+    robot: Robot,
+    demo: Demo,
+    scene: Scene,
+    barriers: Vec<String>,
+    mesh: Mesh,
+}
+
+/// Keyframes `(frame, wrist offset from the grasp pose, jaw q)`, smoothstep in between.
+fn keyframes(variant: Variant) -> Vec<(usize, Vector3<f64>, f64)> {
+    let v = Vector3::new;
+    let mut k = vec![
+        (0, v(0.0, 0.0, 0.10), Q_OPEN),
+        (15, v(0.0, 0.0, 0.10), Q_OPEN),
+        (45, v(0.0, 0.0, 0.0), Q_OPEN),
+        (60, v(0.0, 0.0, 0.0), Q_CLOSED),
+        (90, v(0.0, 0.0, 0.15), Q_CLOSED),
+        (140, v(0.25, 0.0, 0.15), Q_CLOSED),
+        (170, v(0.25, 0.0, 0.0), Q_CLOSED),
+        (185, v(0.25, 0.0, 0.0), Q_OPEN),
+        (215, v(0.25, 0.0, 0.10), Q_OPEN),
+        (230, v(0.25, 0.0, 0.10), Q_OPEN),
+    ];
+    if variant == Variant::OpenMidCarry {
+        // Open between frames 105 and 115 (mid-carry) and stay open.
+        let p = |f: usize| v(0.25 * (f as f64 - 90.0) / 50.0, 0.0, 0.15);
+        k.retain(|&(f, _, _)| f <= 90 || f >= 140);
+        k.insert(5, (105, p(105), Q_CLOSED));
+        k.insert(6, (115, p(115), Q_OPEN));
+        for e in k.iter_mut().filter(|e| e.0 >= 140) {
+            e.2 = Q_OPEN;
+        }
+    }
+    k
+}
+
+fn gripper_case(variant: Variant, frames_out: Option<usize>) -> Case {
+    let dir = tempfile::tempdir().unwrap();
+    let limits = Limits::default();
+    let robot = Robot::from_urdf_file(&root().join("robots/parallel_gripper.urdf"), &limits)
+        .expect("parallel gripper URDF");
+    let mesh_path = dir.path().join("small_box.obj");
+    box_mesh(BOX).write_obj(&mesh_path).unwrap();
+    let mesh = Mesh::load(&mesh_path, Vector3::repeat(1.0), &limits).unwrap();
+
+    // Hand pointing down: hand +z (approach) = world -z, hand y = world -y.
+    let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), PI);
+    let rest = at(0.0, 0.0, BOX[2] / 2.0);
+    let grasp = Vector3::new(0.0, 0.0, BOX[2] / 2.0 + TCP_Z);
+    let shift = if variant == Variant::Offset3cm {
+        Vector3::new(0.03, 0.0, 0.0)
+    } else {
+        Vector3::zeros()
+    };
+    let keys = keyframes(variant);
+    let last = keys.last().unwrap().0;
+    let n = frames_out.unwrap_or(last + 1);
+    let (grasped, placed) = (60usize, 170usize);
+    let wrist_at = |f: f64| -> (Isometry3<f64>, f64) {
+        let i = keys
+            .iter()
+            .rposition(|k| k.0 as f64 <= f)
+            .unwrap()
+            .min(keys.len() - 2);
+        let (a, b) = (&keys[i], &keys[i + 1]);
+        let u = smoothstep((f - a.0 as f64) / (b.0 - a.0) as f64);
+        let p = grasp + a.1.lerp(&b.1, u);
+        (
+            Isometry3::from_parts(Translation3::from(p), down),
+            a.2 + (b.2 - a.2) * u,
+        )
+    };
+    let good_keys = keyframes(Variant::Good);
+    let good_wrist = |f: f64| -> Isometry3<f64> {
+        let i = good_keys
+            .iter()
+            .rposition(|k| k.0 as f64 <= f)
+            .unwrap()
+            .min(good_keys.len() - 2);
+        let (a, b) = (&good_keys[i], &good_keys[i + 1]);
+        let u = smoothstep((f - a.0 as f64) / (b.0 - a.0) as f64);
+        Isometry3::from_parts(Translation3::from(grasp + a.1.lerp(&b.1, u)), down)
+    };
+    let w_grasp = good_wrist(grasped as f64);
+    let mut frames = Vec::with_capacity(n);
+    for i in 0..n {
+        // Stretch the 231 keyframe frames over n output frames.
+        let f = i as f64 * last as f64 / (n - 1) as f64;
+        let (mut wrist, q) = wrist_at(f);
+        wrist.translation.vector += shift;
+        // The object follows the good grasp between grasp and place.
+        let object = if f <= grasped as f64 {
+            rest
+        } else if f <= placed as f64 {
+            good_wrist(f) * w_grasp.inverse() * rest
+        } else {
+            good_wrist(placed as f64) * w_grasp.inverse() * rest
+        };
+        let contacts = if f >= grasped as f64 && f <= placed as f64 {
+            vec![
+                Contact {
+                    link: "left_finger".into(),
+                    hand_point: Point3::new(0.0, 0.0, 0.045),
+                    object_point: Point3::new(0.0, -BOX[1] / 2.0, 0.0),
+                },
+                Contact {
+                    link: "right_finger".into(),
+                    hand_point: Point3::new(0.0, 0.0, 0.045),
+                    object_point: Point3::new(0.0, BOX[1] / 2.0, 0.0),
+                },
+            ]
+        } else {
+            Vec::new()
+        };
+        frames.push(Frame {
+            object,
+            wrist,
+            joints: vec![q],
+            contacts,
+        });
+    }
+    let demo = Demo {
+        name: format!("gripper_{variant:?}"),
+        fps: 30.0,
+        robot: root().join("robots/parallel_gripper.urdf"),
+        object: ObjectInfo {
+            name: "small_box".into(),
+            mesh: mesh_path,
+            mass: 0.1,
+        },
+        joint_names: robot.actuated_names(),
+        frames,
+        timewarp: None,
+        source: dir.path().join("gripper.demo.json"),
+    };
+    // The beam crosses the carry path at the height of the gripper's body (z 0.225-0.273
+    // during the carry), above the box (top at 0.21): only the hand can hit it.
+    let beam_pose = if variant == Variant::ThroughBarrier {
+        at(0.125, 0.0, 0.25)
+    } else {
+        at(-0.3, 0.3, 0.25)
+    };
+    let scene = Scene {
+        name: "gripper_table".into(),
+        items: vec![
+            SceneItem {
+                name: "table".into(),
+                role: Role::Support,
+                pose: at(0.15, 0.0, -0.02),
+                shape: ShapeJson::Box {
+                    size: [0.8, 0.4, 0.04],
+                },
+            },
+            SceneItem {
+                name: "beam".into(),
+                role: Role::Barrier,
+                pose: beam_pose,
+                shape: ShapeJson::Box {
+                    size: [0.01, 0.3, 0.02],
+                },
+            },
+        ],
+        source: dir.path().join("scene.json"),
+    };
+    Case {
+        _dir: dir,
+        robot,
+        demo,
+        scene,
+        barriers: vec!["beam".into()],
+        mesh,
+    }
+}
+
+fn run(case: &Case) -> PhysicsReport {
+    let report = validate(
+        &case.robot,
+        &case.demo,
+        &case.scene,
+        &case.barriers,
+        &case.mesh,
+        &Params::default(),
+        &Limits::default(),
+    )
+    .expect("validate");
+    println!(
+        "{}: {} {:#?}\nmeasures: {}",
+        case.demo.name,
+        report.verdict(),
+        report.reasons,
+        serde_json::to_string_pretty(&report.to_summary()).unwrap()
+    );
+    report
+}
+
+#[test]
+fn gripper_pick_and_place_passes() {
+    let report = run(&gripper_case(Variant::Good, None));
+    assert!(
+        report.passed(),
+        "the good pick and place failed: {:?}",
+        report.reasons
+    );
+    let t = &report.tracking;
+    assert!(
+        t.max_position_error_mm < 5.0,
+        "largest tracking error {:.2} mm at frame {}; expected < 5 mm for a firm grasp",
+        t.max_position_error_mm,
+        t.max_position_error_frame
+    );
+    let release = report.release.as_ref().expect("the demo releases the box");
+    assert!(release.rests_on_support, "release: {release:?}");
+    assert_eq!(release.support.as_deref(), Some("table"));
+    let s = report.stability.as_ref().unwrap();
+    assert!(
+        s.max_mm < 5.0,
+        "simulation displacement {:.2} mm; expected a few mm at most",
+        s.max_mm
+    );
+    assert_eq!(report.penetration.hand_barrier.max_mm, 0.0);
+    let ho = report.penetration.hand_object.max_mm;
+    assert!(
+        (ho - 1.0).abs() < 0.1,
+        "hand-object penetration {ho:.3} mm; expected the designed 1 mm overlap"
+    );
+    assert!(report.drop.is_none());
+}
+
+#[test]
+fn gripper_report_is_deterministic() {
+    let case = gripper_case(Variant::Good, None);
+    let mut a = run(&case);
+    let mut b = run(&case);
+    a.timing_s = Default::default();
+    b.timing_s = Default::default();
+    // The second run hits the decomposition cache.
+    b.replay.decomposition_cached = a.replay.decomposition_cached;
+    assert_eq!(a, b, "two runs on the same input differ");
+}
+
+#[test]
+fn gripper_opening_mid_carry_is_a_drop() {
+    let report = run(&gripper_case(Variant::OpenMidCarry, None));
+    assert!(!report.passed());
+    let d = report.drop.as_ref().expect("a drop");
+    assert_eq!(d.cause, DropCause::LostContact, "{d:?}");
+    assert!(
+        (105..=125).contains(&d.frame),
+        "drop detected at frame {}; the jaws open over frames 105-115",
+        d.frame
+    );
+    assert!(
+        report.reasons.iter().any(|r| r.starts_with("object dropped at frame")),
+        "{:?}",
+        report.reasons
+    );
+}
+
+#[test]
+fn gripper_offset_3cm_misses_the_box() {
+    let report = run(&gripper_case(Variant::Offset3cm, None));
+    assert!(!report.passed());
+    let d = report.drop.as_ref().expect("a drop");
+    assert_eq!(d.cause, DropCause::LostContact, "{d:?}");
+    assert!(
+        report.tracking.max_position_error_mm > 50.0,
+        "tracking error {:.1} mm; expected the box left behind",
+        report.tracking.max_position_error_mm
+    );
+    assert!(
+        report
+            .reasons
+            .iter()
+            .any(|r| r.starts_with("object position error")),
+        "{:?}",
+        report.reasons
+    );
+}
+
+#[test]
+fn gripper_through_a_barrier_fails_on_hand_barrier_penetration() {
+    let report = run(&gripper_case(Variant::ThroughBarrier, None));
+    let hb = &report.penetration.hand_barrier;
+    assert!(
+        hb.max_mm > 5.0 && hb.frames_over_limit > 0,
+        "hand-barrier penetration {hb:?}; expected the gripper body deep in the beam"
+    );
+    assert_eq!(hb.worst_pair.as_deref(), Some("hand / beam"));
+    assert!(
+        report
+            .reasons
+            .iter()
+            .any(|r| r.starts_with("hand-barrier penetration")),
+        "{:?}",
+        report.reasons
+    );
+    assert!(
+        report.drop.is_none() && report.penetration.object_barrier.max_mm == 0.0,
+        "only the hand hits the beam: drop {:?}, object-barrier {:?}",
+        report.drop,
+        report.penetration.object_barrier
+    );
+}
+
+#[test]
+fn summary_has_the_report_fields() {
+    let report = run(&gripper_case(Variant::Good, None));
+    let s = report.to_summary();
+    let v = serde_json::to_value(&s).unwrap();
+    assert_eq!(v["verdict"], "pass");
+    for key in [
+        "tracking",
+        "drop",
+        "penetration",
+        "stability",
+        "release",
+        "replay",
+        "timing_s",
+        "released_on_support",
+        "drop_frame",
+    ] {
+        assert!(v.get(key).is_some(), "summary lacks {key}: {v}");
+    }
+    assert_eq!(v["released_on_support"], true);
+}
+
+/// The bench's input, shared so the test checks what the bench measures.
+pub fn stretched_gripper_case(frames: usize) -> PhysicsReport {
+    run(&gripper_case(Variant::Good, Some(frames)))
+}
+
+#[test]
+fn stretched_700_frame_gripper_demo_passes() {
+    let report = stretched_gripper_case(700);
+    assert!(report.passed(), "{:?}", report.reasons);
+    assert_eq!(report.replay.frames, 700);
+}
+
+#[test]
+#[ignore]
+fn debug_per_frame() {
+    for v in [Variant::Good, Variant::OpenMidCarry] {
+        let case = gripper_case(v, None);
+        let r = run(&case);
+        for (i, ((p, a), t)) in r.per_frame.position_error_mm.iter().zip(&r.per_frame.rotation_error_deg).zip(&r.per_frame.hand_touching).enumerate() {
+            if i % 3 == 0 || *p > 3.0 { println!("{v:?} {i} pos {p:.2} rot {a:.2} touch {t}"); }
+        }
+    }
+}
