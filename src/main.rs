@@ -100,6 +100,27 @@ enum Command {
         /// IK solver for contact IK: lm (fast, default) or adam (the paper's).
         #[arg(long, value_enum, default_value_t = SolverArg::Lm)]
         solver: SolverArg,
+        /// Skip the physics replay (the report's physics is null).
+        #[arg(long)]
+        no_physics: bool,
+    },
+    /// Replay any demonstration, warped or original, in physics; write DIR/report.json and
+    /// DIR/frames.csv.
+    #[command(
+        after_help = "The scene and barriers are the ones the demonstration names (warp outputs name theirs).\n\nExamples:\n  dexwarp validate scenes/demos/mug.demo.json --out out/mug_check\n  dexwarp validate out/mug/mug_pass_wall.demo.json --out out/mug_check\n  dexwarp validate my.demo.json --scene scenes/kitchen.json --barrier wall_back --out out/x"
+    )]
+    Validate {
+        /// Demonstration (`dexwarp.demo/1`).
+        demo: PathBuf,
+        /// Output folder.
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Scene to replay in instead of the demonstration's own.
+        #[arg(long, value_name = "FILE")]
+        scene: Option<PathBuf>,
+        /// Barrier to check against (repeat for several); default: the demonstration's own.
+        #[arg(long = "barrier", value_name = "NAME")]
+        barriers: Vec<String>,
     },
     /// Run many (demo, config) items of a manifest in parallel; a failed item is recorded and
     /// the rest go on.
@@ -231,6 +252,7 @@ fn run(cli: Cli) -> Result<()> {
             threshold_mm,
             hand,
             solver,
+            no_physics,
         } => {
             let inputs = Inputs::load(&config, demo.as_deref(), &limits)?;
             let options = Options {
@@ -238,10 +260,40 @@ fn run(cli: Cli) -> Result<()> {
                 threshold_mm,
                 hand: hand.into(),
                 solver: solver.into(),
+                physics: (!no_physics).then(dexwarp::physics::Params::default),
                 limits,
             };
             let run = pipeline::warp(&inputs, &options)?;
             write_outputs(&out, &run)
+        }
+        Command::Validate {
+            demo,
+            out,
+            scene,
+            barriers,
+        } => {
+            let (report, frames) = pipeline::validate(
+                &demo,
+                scene.as_deref(),
+                (!barriers.is_empty()).then_some(barriers.as_slice()),
+                &dexwarp::physics::Params::default(),
+                &limits,
+            )?;
+            dexwarp::output::frames::write_csv(&out.join("frames.csv"), &frames)?;
+            dexwarp::model::json::write_json_atomic(&out.join("report.json"), &report)?;
+            let physics = report.physics.as_ref();
+            eprintln!(
+                "{}: physics {}{}; D_C {:.2} mm; report in {}",
+                demo.display(),
+                physics.map_or("not run", |p| p.verdict.as_str()),
+                physics
+                    .filter(|p| !p.reasons.is_empty())
+                    .map(|p| format!(" ({})", p.reasons.join("; ")))
+                    .unwrap_or_default(),
+                report.metrics.d_c_mm.warped,
+                out.join("report.json").display()
+            );
+            Ok(())
         }
         Command::Batch {
             manifest,

@@ -7,7 +7,7 @@
 //! 4. hand recovery: per-frame contact IK ([`crate::hand::ik`]) warm-started from the SE(3)
 //!    baseline ([`crate::hand::baseline`]), or the baseline alone,
 //! 5. smoothing of the hand (contact IK only),
-//! 6. physics replay (lands with the physics stage),
+//! 6. physics replay in Rapier ([`crate::physics`]),
 //! 7. metrics ([`crate::metrics`]),
 //! 8. report ([`crate::model::report`]).
 
@@ -28,6 +28,7 @@ use crate::model::report::{
 };
 use crate::model::{Demo, Frame, Scene, WarpConfig};
 use crate::output::frames::FrameRow;
+use crate::physics;
 use crate::robot::{CollisionShape, Robot};
 use crate::warp::barrier::{Barrier, item_hull_points};
 use crate::warp::{ObjectParams, ObjectPath, ObjectWarp, WarpPlan, warp_object};
@@ -63,6 +64,8 @@ pub struct Options {
     pub hand: HandMethod,
     /// IK solver (contact IK only).
     pub solver: Solver,
+    /// Physics replay parameters; `None` skips the replay (the report's `physics` is null).
+    pub physics: Option<physics::Params>,
     pub limits: Limits,
 }
 
@@ -163,9 +166,29 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         }
     };
 
+    let mut out = assemble(demo, &object, &hand, &config.name);
+    out.scene = Some(config.scene.clone());
+    out.barriers = config.barriers.clone();
+
+    // Stage 6: physics replay.
+    let physics = match &options.physics {
+        Some(params) => Some(physics::validate(
+            robot,
+            &out,
+            scene,
+            &config.barriers,
+            mesh,
+            params,
+            &options.limits,
+        )?),
+        None => None,
+    };
+    if let Some(p) = &physics {
+        timing.insert("physics".into(), p.timing_s.total);
+    }
+
     // Stages 7-8: metrics and report.
     let clock = Instant::now();
-    let out = assemble(demo, &object, &hand, &config.name);
     let threshold = options.threshold_mm.unwrap_or(config.params.threshold_mm);
     let dc_frames = metrics::contact_distance_per_frame_mm(robot, &out);
     let mut report = report(demo, &out, &dc_frames, robot, &object, &barriers, mesh)?;
@@ -173,6 +196,18 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     report.config = Some(config.source.display().to_string());
     report.threshold_mm = Some(threshold);
     report.hand = Some(options.hand.as_str().into());
+    if let Some(p) = &physics {
+        report.physics = Some(p.to_summary());
+        for (r, (pos, rot)) in frames.iter_mut().zip(
+            p.per_frame
+                .position_error_mm
+                .iter()
+                .zip(&p.per_frame.rotation_error_deg),
+        ) {
+            r.physics_position_error_mm = Some(*pos);
+            r.physics_rotation_error_deg = Some(*rot);
+        }
+    }
     if let Some(st) = &ik_stats {
         report.solver = Some(st.solver.as_str().into());
         report.ik = Some(IkSummary {
@@ -279,6 +314,8 @@ pub fn assemble(demo: &Demo, object: &ObjectWarp, hand: &HandPath, name: &str) -
         joint_names: demo.joint_names.clone(),
         frames,
         timewarp: Some(tw.tau.clone()),
+        scene: None,
+        barriers: Vec::new(),
         source: demo.source.clone(),
     }
 }
@@ -386,4 +423,117 @@ fn frame_rows(out: &Demo, object: &ObjectWarp, dc: &[Option<f64>]) -> Vec<FrameR
             }
         })
         .collect()
+}
+
+/// Replays any demonstration, warped or original, in physics and reports on it
+/// (`dexwarp validate`): the physics verdict, D_WO, D_C and, for warped outputs, the timewarp
+/// discrepancy. The scene is the demonstration's own (`scene`, `barriers` in the file) unless
+/// `scene` is given.
+pub fn validate(
+    demo_path: &Path,
+    scene: Option<&Path>,
+    barriers: Option<&[String]>,
+    params: &physics::Params,
+    limits: &Limits,
+) -> Result<(Report, Vec<FrameRow>)> {
+    let mut demo = Demo::load(demo_path, limits)?;
+    let robot = Robot::from_urdf_file(&demo.robot, limits)?;
+    demo.check_robot(&robot)?;
+    let scene_path = match (scene, &demo.scene) {
+        (Some(s), _) => s.to_path_buf(),
+        (None, Some(s)) => s.clone(),
+        (None, None) => {
+            return Err(Error::invalid(
+                demo_path,
+                "scene",
+                "the demonstration names no scene; give one with --scene (e.g. scenes/kitchen.json)",
+            ));
+        }
+    };
+    let scene = Scene::load(&scene_path, limits)?;
+    let barriers: Vec<String> = barriers
+        .map(<[String]>::to_vec)
+        .unwrap_or_else(|| demo.barriers.clone());
+    for (j, b) in barriers.iter().enumerate() {
+        if scene.item(b).is_none() {
+            return Err(Error::invalid(
+                demo_path,
+                format!("barriers[{j}]"),
+                format!("{b:?} is not an item of scene {}", scene_path.display()),
+            ));
+        }
+    }
+    let mesh = Mesh::load(&demo.object.mesh, nalgebra::Vector3::repeat(1.0), limits)?;
+    let report_p = physics::validate(&robot, &demo, &scene, &barriers, &mesh, params, limits)?;
+    let dc = metrics::contact_distance_per_frame_mm(&robot, &demo);
+    let d_c = metrics::d_c_mm(&dc);
+    let d_wo = metrics::d_wo_mm(&demo);
+    let n = demo.frames.len();
+    let discrepancy = demo
+        .timewarp
+        .as_ref()
+        .map(|tau| {
+            crate::warp::retime::Timewarp {
+                tau: tau.clone(),
+                frames_out: n,
+            }
+            .discrepancy()
+        })
+        .unwrap_or(0.0);
+    let segment = demo.contact_segment();
+    let frames = demo
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(t, f)| {
+            let (o, w) = (f.object.translation.vector, f.wrist.translation.vector);
+            FrameRow {
+                frame: t,
+                source_frame: t,
+                in_contact: segment.is_some_and(|s| (s.start..=s.end).contains(&t)),
+                object_x: o.x,
+                object_y: o.y,
+                object_z: o.z,
+                wrist_x: w.x,
+                wrist_y: w.y,
+                wrist_z: w.z,
+                d_c_mm: dc[t],
+                d_c_unsmoothed_mm: dc[t],
+                physics_position_error_mm: report_p.per_frame.position_error_mm.get(t).copied(),
+                physics_rotation_error_deg: report_p.per_frame.rotation_error_deg.get(t).copied(),
+                ..FrameRow::default()
+            }
+        })
+        .collect();
+    let mut timing_s = BTreeMap::new();
+    timing_s.insert("physics".to_string(), report_p.timing_s.total);
+    let report = Report {
+        format: REPORT_FORMAT.into(),
+        name: demo.name.clone(),
+        frames_in: demo.timewarp.as_ref().map_or(n, Vec::len),
+        frames_out: n,
+        metrics: Metrics {
+            d_wo_mm: Pair {
+                original: d_wo,
+                warped: d_wo,
+            },
+            d_c_mm: ContactDistance {
+                original: d_c,
+                unsmoothed: d_c,
+                warped: d_c,
+            },
+            plr_object: 1.0,
+            plr_hand: 1.0,
+            timewarp_discrepancy: discrepancy,
+        },
+        constraints: Constraints {
+            object_radius_mm: mesh.bounding_radius() * 1e3,
+            contact_gap_frames: segment.map_or(0, |s| s.gap_frames),
+            ..Constraints::default()
+        },
+        physics: Some(report_p.to_summary()),
+        timing_s,
+        ..Report::default()
+    };
+    Ok((report, frames))
 }

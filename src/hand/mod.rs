@@ -3,6 +3,8 @@
 
 pub mod baseline;
 pub mod ik;
+pub mod robustness;
+pub mod smooth;
 
 use nalgebra::Isometry3;
 

@@ -86,6 +86,12 @@ pub struct DemoFile {
     /// (warped outputs only; its length is the input's frame count).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub timewarp: Option<Vec<f64>>,
+    /// Scene the demonstration happens in, relative to the file (`validate` replays it there).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<PathBuf>,
+    /// Scene items the hand and object must avoid (barriers of the warp, for `validate`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub barriers: Vec<String>,
 }
 
 /// A contact correspondence in memory.
@@ -133,6 +139,10 @@ pub struct Demo {
     pub frames: Vec<Frame>,
     /// Output time [frames] of each input frame, for warped outputs.
     pub timewarp: Option<Vec<f64>>,
+    /// Resolved scene path, when the file names one.
+    pub scene: Option<PathBuf>,
+    /// Barrier names of the scene that apply to this demonstration.
+    pub barriers: Vec<String>,
     /// The file this demonstration was read from, for messages.
     pub source: PathBuf,
 }
@@ -193,6 +203,14 @@ impl Demo {
         require_file(path, "robot", &robot)?;
         let mesh = json::resolve_relative(path, &file.object.mesh);
         require_file(path, "object.mesh", &mesh)?;
+        let scene = match &file.scene {
+            Some(sc) => {
+                let p = json::resolve_relative(path, sc);
+                require_file(path, "scene", &p)?;
+                Some(p)
+            }
+            None => None,
+        };
         let mut seen = std::collections::HashSet::new();
         for (j, name) in file.joint_names.iter().enumerate() {
             if !seen.insert(name.as_str()) {
@@ -260,6 +278,8 @@ impl Demo {
             joint_names: file.joint_names,
             frames,
             timewarp: file.timewarp,
+            scene,
+            barriers: file.barriers,
             source: path.to_path_buf(),
         })
     }
@@ -313,6 +333,8 @@ impl Demo {
                 })
                 .collect(),
             timewarp: self.timewarp.clone(),
+            scene: self.scene.as_ref().map(|s| relative_path(base, s)),
+            barriers: self.barriers.clone(),
         }
     }
 

@@ -3,7 +3,8 @@
 //! - **Tracking**: per frame, `e_p = ‖p_sim − p_demo‖` and `e_R = angle(R_sim⁻¹ R_demo)`.
 //! - **Drop**: the first frame of the contact segment `[c0, c1]` with `e_p` above
 //!   [`Params::drop_error_m`]; the cause is [`DropCause::LostContact`] when the hand does not
-//!   touch the simulated object there (narrow-phase distance above skin + tolerance),
+//!   touch the simulated object there (parry distance from the hand at that frame to the
+//!   simulated object above skin + tolerance),
 //!   [`DropCause::Slipped`] otherwise.
 //! - **Penetration**: parry `contact` queries at the demonstration's poses (not Rapier's
 //!   cached manifolds, which recycling leaves stale, and not the simulated poses, which the
@@ -222,6 +223,18 @@ pub fn place_object<'a>(
     for part in &object.parts {
         out.push(Placed::new(part.as_ref(), pose, 0));
     }
+}
+
+/// `true` when some placed hand shape is within `reach` [m] of the object at `pose`
+/// (parry distance, AABB pre-test).
+pub fn hand_touches(hand: &[Placed<'_>], object: &ObjectShape, pose: &Isometry3<f64>, reach: f64) -> bool {
+    let pose = to_pose(pose);
+    let aabb = object.compound.compute_aabb(&pose).loosened(reach);
+    hand.iter().any(|h| {
+        h.aabb.intersects(&aabb)
+            && query::distance(&h.pose, h.shape, &pose, object.compound.as_ref())
+                .is_ok_and(|d| d.distance <= reach)
+    })
 }
 
 /// Simulation displacement [m] at one frame (see the module docs).

@@ -166,14 +166,8 @@ pub fn validate(
     // 4. Checks.
     let segment = demo.contact_segment();
     let (pos_err, rot_err, tracking) = checks::tracking_errors(demo, &trace.object);
-    let touch_limit = params.finger_skin_m + params.touch_tolerance_m;
-    let touching: Vec<bool> = trace
-        .hand_gap_m
-        .iter()
-        .map(|g| g.is_some_and(|g| g <= touch_limit))
-        .collect();
-    let dropped = segment.and_then(|s| checks::find_drop(s, &pos_err, &touching, params));
-
+    let touch_reach = params.finger_skin_m + params.touch_tolerance_m;
+    let mut touching = Vec::with_capacity(demo.frames.len());
     let t_pen = Instant::now();
     let shapes = checks::hand_shapes(robot);
     let link_names: Vec<String> = robot.links().iter().map(|l| l.name.clone()).collect();
@@ -194,6 +188,7 @@ pub fn validate(
     for (i, frame) in demo.frames.iter().enumerate() {
         robot.forward_kinematics(&frame.wrist, &frame.joints, &mut link_poses);
         checks::place_hand(&shapes, &link_poses, &mut hand_placed);
+        touching.push(checks::hand_touches(&hand_placed, &object, &trace.object[i], touch_reach));
         checks::place_object(&object, &frame.object, &mut object_placed);
         let hit = checks::deepest(&hand_placed, &object_placed, &mut unsupported[0]);
         per_ho.push(hand_object.add(i, hit, &link_names, &object_names) * 1e3);
@@ -211,6 +206,7 @@ pub fn validate(
         hand_support: hand_support.finish(unsupported[3]),
     };
     let penetration_s = t_pen.elapsed().as_secs_f64();
+    let dropped = segment.and_then(|s| checks::find_drop(s, &pos_err, &touching, params));
 
     let t_stab = Instant::now();
     let stability = segment.map(|s| {

@@ -11,13 +11,13 @@
 //!
 //! which Rapier reaches at the end of the step (position-based kinematic bodies get the
 //! velocity that takes them there, so the contacts see the hand's true motion). The object's
-//! pose, speed and hand contact are recorded after the last step of each interval, i.e. at
+//! pose and speed are recorded after the last step of each interval, i.e. at
 //! every frame time. A non-finite object pose stops the replay and is reported, never
 //! propagated.
 
 use nalgebra::{Isometry3, Translation3};
 
-use super::world::{ReplayWorld, Tag};
+use super::world::ReplayWorld;
 use crate::math::rotation::slerp_shortest;
 use crate::model::{Demo, Frame};
 use crate::robot::Robot;
@@ -27,8 +27,6 @@ use crate::robot::Robot;
 pub struct Trace {
     /// Simulated object pose at each frame time.
     pub object: Vec<Isometry3<f64>>,
-    /// Smallest hand-object contact distance [m] at each frame (`None`: not near).
-    pub hand_gap_m: Vec<Option<f64>>,
     /// Object speed [m/s] at each frame.
     pub speed_m_s: Vec<f64>,
     /// Steps per frame interval.
@@ -74,7 +72,6 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
     };
     trace.object.reserve(frames.len());
     trace.object.push(world.object_pose());
-    trace.hand_gap_m.push(world.object_gap(Tag::Hand));
     trace.speed_m_s.push(world.object_speed());
     let mut q = vec![0.0; robot.dof()];
     let mut link_poses = robot.new_link_poses();
@@ -94,13 +91,11 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
             // Hold the last finite pose so later checks see a failure, not NaN.
             let last = *trace.object.last().unwrap_or(&frames[0].object);
             trace.object.resize(frames.len(), last);
-            trace.hand_gap_m.resize(frames.len(), None);
             trace.speed_m_s.resize(frames.len(), 0.0);
             break;
         }
         trace.object.push(pose);
-        trace.hand_gap_m.push(world.object_gap(Tag::Hand));
-        trace.speed_m_s.push(world.object_speed());
+            trace.speed_m_s.push(world.object_speed());
     }
     trace
 }

@@ -225,6 +225,7 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
                 threshold_mm: Some(variant.threshold_mm),
                 hand: variant.hand,
                 solver: variant.solver,
+                physics: Some(crate::physics::Params::default()),
                 limits: options.limits,
             },
         )?;

@@ -238,25 +238,45 @@ pub fn solve(
         .iter()
         .fold(Vector3::zeros(), |a, t| a + t.object_point.coords)
         / n;
-    let r = hand_rotation(
+    let r0 = hand_rotation(
         &Vector3::from(template.palm_normal),
         &Vector3::from(template.fingers),
     );
-    let wrist_obj = Isometry3::from_parts(Translation3::from(obj_c - r * hand_c), r);
-    let mut wrist = object_pose * wrist_obj;
-    let mut q = q0;
-
-    // 2. Contact IK.
-    let ik = IkParams {
+    // 2. Contact IK from several initial orientations (the template's, turned about the
+    //    palm normal and about the thumb axis), first on the targets alone, then with the
+    //    penetration and support terms; the lowest residual wins.
+    let plain = IkParams {
         threshold_mm: params.threshold_mm,
         max_iterations: params.max_iterations,
+        barrier_weight: 0.0,
+        ..IkParams::default()
+    };
+    let careful = IkParams {
         margin_m: 0.01,
         barrier_weight: 0.1,
         penetration_weight: 1.0,
-        ..IkParams::default()
+        ..plain.clone()
     };
-    let mut solver = IkSolver::new(robot, barriers, Some(object_shape), ik);
-    let res = solver.solve(object_pose, &targets, &mut wrist, &mut q);
+    let mut solver = IkSolver::new(robot, barriers, Some(object_shape), plain);
+    let mut fine = IkSolver::new(robot, barriers, Some(object_shape), careful);
+    let mut best: Option<(f64, Isometry3<f64>, Vec<f64>, crate::hand::ik::FrameResult)> = None;
+    for (ax, ay) in TURNS {
+        let turn = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), ax)
+            * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), ay);
+        let r = r0 * turn;
+        let wrist_obj = Isometry3::from_parts(Translation3::from(obj_c - r * hand_c), r);
+        let mut wrist = object_pose * wrist_obj;
+        let mut q = q0.clone();
+        solver.solve(object_pose, &targets, &mut wrist, &mut q);
+        let res = fine.solve(object_pose, &targets, &mut wrist, &mut q);
+        robot.forward_kinematics(&wrist, &q, &mut poses);
+        let depth = penetration(robot, &poses, object, object_pose).depth_m;
+        let score = res.mean_mm + 2.0 * depth * 1e3;
+        if best.as_ref().is_none_or(|(b, ..)| score < *b) {
+            best = Some((score, wrist, q, res));
+        }
+    }
+    let (_, mut wrist, mut q, res) = best.expect("at least one initial orientation");
     // 3. Reached?
     if !(res.mean_mm <= params.accept_mm) {
         return Err(GraspFailure::Unreachable {
@@ -338,7 +358,7 @@ pub fn nudge(
                 }
             }
         }
-        if link == robot.root() || best.is_none() {
+        if link == robot.root() {
             for axis in [Vector3::x(), Vector3::y(), Vector3::z()] {
                 for s in [-0.0005, 0.0005] {
                     let w = Translation3::from(axis * s) * *wrist;
@@ -358,10 +378,72 @@ pub fn nudge(
     moves
 }
 
+/// Turns of the initial orientation tried: (about the palm normal, about the thumb axis) [rad].
+const TURNS: [(f64, f64); 7] = [
+    (0.0, 0.0),
+    (0.5, 0.0),
+    (-0.5, 0.0),
+    (1.0, 0.0),
+    (-1.0, 0.0),
+    (0.0, 0.4),
+    (0.0, -0.4),
+];
+
 /// The link ids of a robot's `<finger>_tip` frames that exist, for reports.
 pub fn tip_links(robot: &Robot) -> Vec<LinkId> {
     ["thumb_tip", "index_tip", "middle_tip", "ring_tip", "little_tip"]
         .iter()
         .filter_map(|n| robot.link_id(n))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::ShapeKind;
+    use crate::synth::objects::ObjectKind;
+    use crate::synth::templates::template;
+    use std::path::Path;
+
+    #[test]
+    #[ignore = "prints grasp diagnostics"]
+    fn print_grasps() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("robots");
+        for (file, objects) in [
+            ("human_hand.urdf", vec![ObjectKind::Cube, ObjectKind::FryingPan, ObjectKind::Mug, ObjectKind::Teapot]),
+            ("allegro_hand.urdf", vec![ObjectKind::Apple, ObjectKind::Cube]),
+            ("parallel_gripper.urdf", vec![ObjectKind::SmallBox, ObjectKind::Cube]),
+        ] {
+            let robot = Robot::from_urdf_file(&dir.join(file), &crate::Limits::default()).unwrap();
+            let family = HandFamily::detect(&robot).unwrap();
+            for object in objects {
+                let mesh = object.mesh();
+                let geo = ObjectGeometry::new(mesh.clone()).unwrap();
+                let shape = CollisionShape::new(
+                    ShapeKind::Mesh { path: "x.obj".into(), scale: Vector3::repeat(1.0), mesh: std::sync::Arc::new(mesh) },
+                    Isometry3::identity(),
+                ).unwrap();
+                let pose = Isometry3::translation(0.0, 0.0, 0.9 - geo.min_z);
+                let table = CollisionShape::new(ShapeKind::Box { size: Vector3::new(2.0, 2.0, 0.1) }, Isometry3::translation(0.0, 0.0, 0.85)).unwrap();
+                let t = template(family, object).unwrap();
+                let clock = std::time::Instant::now();
+                let r = solve(&robot, &t, &geo, &shape, &pose, std::slice::from_ref(&table), &GraspParams::default());
+                match r {
+                    Ok(g) => {
+                        let mut poses = robot.new_link_poses();
+                        let w = pose * g.wrist_in_object;
+                        robot.forward_kinematics(&w, &g.q, &mut poses);
+                        let samples = crate::synth::contacts::hand_samples(&robot, 0.006);
+                        let c = crate::synth::contacts::extract(&robot, &samples, &poses, &geo, &pose, 0.005);
+                        let mut per: std::collections::BTreeMap<String, usize> = Default::default();
+                        for x in &c { *per.entry(x.link.clone()).or_default() += 1; }
+                        let lowest = poses.iter().map(|p| p.translation.z).fold(f64::INFINITY, f64::min);
+                        println!("{file} {object}: ik {:.2} mm in {} it, depth {:.2} mm after {} nudges, {} contacts {per:?}, lowest link origin z {:.3}, {:.2}s\n  wrist {:?}\n  q {:?}",
+                            g.ik_mean_mm, g.ik_iterations, g.depth_mm, g.nudges, c.len(), lowest, clock.elapsed().as_secs_f64(), g.wrist_in_object, g.q.iter().map(|v| (v*100.0).round()/100.0).collect::<Vec<_>>());
+                    }
+                    Err(e) => println!("{file} {object}: {e}"),
+                }
+            }
+        }
+    }
 }

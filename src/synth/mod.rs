@@ -1,3 +1,15 @@
-//! Synthetic assets and demonstrations: object meshes, and (later) scripted demonstrations.
+//! Synthetic assets and demonstrations: object meshes, grasps by contact IK, scripted
+//! motions, geometric contact extraction, and the base demonstrations of `scenes/demos/`.
+//!
+//! - [`objects`]: the object meshes and masses;
+//! - [`motion`]: the scripted in-contact motions (`lift_place`, `pour`, `pass`);
+//! - [`proximity`]: object signed distance, hand-object penetration;
+//! - [`grasp`], [`templates`]: grasp synthesis by contact IK toward chosen pad targets;
+//! - [`contacts`]: correspondence extraction and motion-capture noise.
 
+pub mod contacts;
+pub mod grasp;
+pub mod motion;
 pub mod objects;
+pub mod proximity;
+pub mod templates;

@@ -163,8 +163,7 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
                 human_pad("index_tip", [0.02, -0.05, 0.03]),
                 human_pad("middle_tip", [0.025, -0.05, 0.008]),
                 human_pad("ring_tip", [0.025, -0.05, -0.012]),
-                human_pad("little_tip", [0.015, -0.05, -0.028]),
-                human_pad("thumb_tip", [-0.025, 0.05, 0.03]),
+                human_pad("thumb_tip", [-0.01, 0.05, 0.035]),
             ],
             open: [
                 human_open(&all, 0.6),

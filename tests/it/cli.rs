@@ -185,22 +185,23 @@ fn filter_keeps_and_explains() {
     let dir = tempfile::tempdir().unwrap();
     let config = gripper_fixture(dir.path());
     let out = dir.path().join("out");
-    for (name, extra) in [("x", None), ("y", Some("2.5"))] {
+    // x: no physics replay; y: replayed (the fixture's jaws do not squeeze the box, so the
+    // physics verdict is a drop).
+    for (name, extra) in [("x", "--no-physics"), ("y", "--threshold-mm=2.5")] {
         let d = out.join(name);
-        let mut args = vec![
+        let args = [
             "warp",
             "--config",
             config.to_str().unwrap(),
             "--out",
             d.to_str().unwrap(),
+            extra,
         ];
-        if let Some(t) = extra {
-            args.extend(["--threshold-mm", t]);
-        }
-        assert!(dexwarp(&args).status.success());
+        let o = dexwarp(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
     }
     let keep = dir.path().join("keep.csv");
-    // Without physics in the reports, the default (physics required) drops both, saying why.
+    // The default requires a physics pass: both are dropped, each with its reasons.
     let o = dexwarp(&[
         "filter",
         out.to_str().unwrap(),
@@ -210,7 +211,13 @@ fn filter_keeps_and_explains() {
     assert!(o.status.success(), "{}", stderr(&o));
     let dropped = std::fs::read_to_string(dir.path().join("keep.dropped.csv")).unwrap();
     assert_eq!(dropped.lines().count(), 3, "{dropped}");
-    assert!(dropped.contains("no physics verdict"), "{dropped}");
+    let x = dropped.lines().find(|l| l.contains("/x/")).unwrap();
+    let y = dropped.lines().find(|l| l.contains("/y/")).unwrap();
+    assert!(x.contains("no physics verdict"), "{x}");
+    assert!(
+        y.contains(",fail,") && y.contains("physics: object dropped"),
+        "{y}"
+    );
     let o = dexwarp(&[
         "filter",
         out.to_str().unwrap(),

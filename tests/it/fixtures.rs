@@ -66,6 +66,8 @@ pub fn gripper_fixture(dir: &Path) -> PathBuf {
         joint_names: vec!["finger_joint1".into()],
         frames,
         timewarp: None,
+        scene: None,
+        barriers: Vec::new(),
         source: dir.join("box.demo.json"),
     };
     demo.save(&dir.join("box.demo.json")).unwrap();

@@ -16,8 +16,8 @@
 use std::path::{Path, PathBuf};
 
 use dexwarp::Limits;
-use dexwarp::model::demo::ObjectInfo;
 use dexwarp::model::config::{ConfigFile, RetimeMode, WarpConfig};
+use dexwarp::model::demo::ObjectInfo;
 use dexwarp::model::{Contact, Demo, Frame, WarpParams};
 use dexwarp::robot::Robot;
 use dexwarp::synth::objects::{ObjectKind, object_mesh};
@@ -156,7 +156,8 @@ impl GraspDemo {
             .collect();
         // Object origin at the centroid of the grasped points, axes of the hand: X = W⁻¹·O.
         let centroid = in_hand.iter().map(|p| p.coords).sum::<Vector3<f64>>() / count as f64;
-        let hand_to_object = Isometry3::from_parts(Translation3::from(centroid), UnitQuaternion::identity());
+        let hand_to_object =
+            Isometry3::from_parts(Translation3::from(centroid), UnitQuaternion::identity());
         let contacts: Vec<Contact> = picked
             .iter()
             .zip(&in_hand)
@@ -216,6 +217,8 @@ impl GraspDemo {
             joint_names: robot.actuated_names(),
             frames,
             timewarp: None,
+            scene: None,
+            barriers: Vec::new(),
             source: dir.path().join("synthetic.demo.json"),
         };
         GraspDemo {

@@ -1,0 +1,155 @@
+//! Stage 5: light smoothing of the recovered hand (METHOD.md stage 4 "Smoothing", paper
+//! "Hand Warping", last paragraph).
+//!
+//! Per-frame IK leaves small frame-to-frame jitter. Inside the contact segment only:
+//! - wrist translation: Savitzky-Golay, `savgol_window` samples, order `savgol_polyorder`
+//!   ([`crate::math::savgol`], scipy's `savgol_filter`, mode 'interp');
+//! - wrist rotation: centered moving-window quaternion average (Markley), `2h+1` frames with
+//!   `h = rotation_half_window` ([`crate::math::rotation::windowed_average`]);
+//! - joints (1-DoF each): centered moving mean of the angles, `h = joint_half_window`.
+//!
+//! Frames outside the range are untouched. Continuity at the boundaries: each filter runs
+//! over the range extended by up to its half window of the untouched neighbours on each
+//! side, and only the range is written back. So the first and last frames of the segment
+//! are smoothed with their real neighbours (no one-sided edge fit, no step introduced at the
+//! boundary); at the ends of the whole path the filters' own edge rules apply (SavGol's
+//! polynomial edge fit, the symmetric shrinking window of the averages).
+//!
+//! Smoothing moves the hand off the IK solution: the report shows D_C before and after
+//! ("drift", paper Table 3). A polynomial of degree ≤ `savgol_polyorder` in time (e.g. a
+//! straight line at constant speed) passes through the translation filter unchanged.
+
+use std::ops::RangeInclusive;
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use super::HandPath;
+use crate::math::rotation::{RotationError, windowed_average, windowed_mean};
+use crate::math::savgol::{SavgolError, savgol_filter3};
+
+/// Parameters of the smoothing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Params {
+    /// Savitzky-Golay window of the wrist translation [frames], odd, > polyorder. Default 9.
+    pub savgol_window: usize,
+    /// Savitzky-Golay polynomial order. Default 3.
+    pub savgol_polyorder: usize,
+    /// Half window of the wrist-rotation average [frames] (0 = off). Default 2.
+    pub rotation_half_window: usize,
+    /// Half window of the joint-angle mean [frames] (0 = off). Default 2.
+    pub joint_half_window: usize,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            savgol_window: 9,
+            savgol_polyorder: 3,
+            rotation_half_window: 2,
+            joint_half_window: 2,
+        }
+    }
+}
+
+/// Why smoothing failed: bad parameters or non-finite input (the IK stage reports those).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SmoothError {
+    #[error("wrist translation: {0}")]
+    Translation(#[from] SavgolError),
+    #[error("wrist rotation or joints: {0}")]
+    Rotation(#[from] RotationError),
+    #[error("range {start}..={end} is outside the hand path of {frames} frames")]
+    Range {
+        start: usize,
+        end: usize,
+        frames: usize,
+    },
+}
+
+/// How far smoothing moved the hand.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    /// Frames smoothed.
+    pub frames: usize,
+    /// Largest change of the wrist position [mm].
+    pub max_translation_mm: f64,
+    /// Largest change of the wrist rotation [deg].
+    pub max_rotation_deg: f64,
+    /// Largest change of a joint value [rad or m].
+    pub max_joint: f64,
+    /// Wall time [s].
+    pub time_s: f64,
+}
+
+/// Smooths `hand` inside `range` (output frames of the contact segment; see the module docs).
+pub fn run(
+    hand: &HandPath,
+    range: RangeInclusive<usize>,
+    params: &Params,
+) -> Result<(HandPath, Stats), SmoothError> {
+    let clock = Instant::now();
+    let (a, b) = (*range.start(), *range.end());
+    let n = hand.len();
+    if a > b || b >= n {
+        return Err(SmoothError::Range {
+            start: a,
+            end: b,
+            frames: n,
+        });
+    }
+    let mut out = hand.clone();
+    let mut stats = Stats {
+        frames: b + 1 - a,
+        ..Stats::default()
+    };
+    // Each filter sees up to its half window of neighbours outside the range.
+    let extended = |half: usize| (a.saturating_sub(half), (b + half).min(n - 1));
+
+    let (lo, hi) = extended(params.savgol_window / 2);
+    let positions: Vec<Vector3<f64>> = hand.wrists[lo..=hi]
+        .iter()
+        .map(|w| w.translation.vector)
+        .collect();
+    let smoothed = savgol_filter3(&positions, params.savgol_window, params.savgol_polyorder)?;
+    for t in a..=b {
+        let v = smoothed[t - lo];
+        stats.max_translation_mm = stats
+            .max_translation_mm
+            .max((v - hand.wrists[t].translation.vector).norm() * 1e3);
+        out.wrists[t].translation.vector = v;
+    }
+
+    if params.rotation_half_window > 0 {
+        let (lo, hi) = extended(params.rotation_half_window);
+        let rotations: Vec<_> = hand.wrists[lo..=hi].iter().map(|w| w.rotation).collect();
+        let averaged = windowed_average(&rotations, params.rotation_half_window)?;
+        for t in a..=b {
+            let r = averaged[t - lo];
+            stats.max_rotation_deg = stats
+                .max_rotation_deg
+                .max(r.angle_to(&hand.wrists[t].rotation).to_degrees());
+            out.wrists[t].rotation = r;
+        }
+    }
+
+    if params.joint_half_window > 0 {
+        let (lo, hi) = extended(params.joint_half_window);
+        let dof = hand.dof;
+        let mut column = Vec::with_capacity(hi + 1 - lo);
+        for j in 0..dof {
+            column.clear();
+            column.extend((lo..=hi).map(|t| hand.joints[t * dof + j]));
+            let mean = windowed_mean(&column, params.joint_half_window)?;
+            for t in a..=b {
+                let v = mean[t - lo];
+                stats.max_joint = stats.max_joint.max((v - hand.joints[t * dof + j]).abs());
+                out.joints[t * dof + j] = v;
+            }
+        }
+    }
+    stats.time_s = clock.elapsed().as_secs_f64();
+    Ok((out, stats))
+}
