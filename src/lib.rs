@@ -26,6 +26,7 @@ pub mod model;
 pub mod output;
 pub mod pipeline;
 pub mod physics;
+pub mod reproduce;
 pub mod robot;
 pub mod synth;
 pub mod warp;

@@ -69,6 +69,51 @@ impl LimitArgs {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// The main job: every config in scenes/configs at the paper's thresholds, with Adam and
+    /// the baseline, the robustness sweep, physics on every output; the paper's tables and an
+    /// HTML report.
+    #[command(
+        after_help = "Run it from the repository root (it reads scenes/ and robots/ there).\n\nExamples:\n  dexwarp reproduce\n  dexwarp reproduce --quick --out /tmp/quick\n  dexwarp reproduce --out reports/latest --jobs 2"
+    )]
+    Reproduce {
+        /// Output folder.
+        #[arg(long, value_name = "DIR", default_value = "reports/latest")]
+        out: PathBuf,
+        /// A quick pass: Adam on three configs only, robustness at 0/50/100 %.
+        #[arg(long)]
+        quick: bool,
+        /// Worker threads (default: one per core).
+        #[arg(long, value_name = "N", default_value_t = 0)]
+        jobs: usize,
+    },
+    /// Make a demonstration: the object resting on a support, the hand reaching and grasping
+    /// it (contact IK), a scripted motion, release and retreat, with geometric correspondences.
+    #[command(
+        after_help = "Objects: cube, frying_pan, mug, teapot, apple, small_box. Motions: lift_place, pour, pass.\n\nExamples:\n  dexwarp synth --object mug --robot robots/human_hand.urdf --motion pass --out out/mug.demo.json\n  dexwarp synth --object apple --robot robots/allegro_hand.urdf --motion lift_place --out out/apple.demo.json --noise-mm 2 --seed 3"
+    )]
+    Synth {
+        /// Object name.
+        #[arg(long, value_name = "NAME")]
+        object: String,
+        /// URDF of the hand.
+        #[arg(long, value_name = "URDF")]
+        robot: PathBuf,
+        /// Motion name.
+        #[arg(long, value_name = "NAME")]
+        motion: String,
+        /// Output demonstration file (the object mesh is written beside it unless --mesh).
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+        /// Existing object mesh to reference instead of writing one.
+        #[arg(long, value_name = "FILE")]
+        mesh: Option<PathBuf>,
+        /// Seed of the correspondence noise.
+        #[arg(long, value_name = "N")]
+        seed: Option<u64>,
+        /// Correspondence noise, standard deviation per axis [mm].
+        #[arg(long, value_name = "MM")]
+        noise_mm: Option<f64>,
+    },
     /// Load a hand and print its links, DoF, joint limits, mimic joints and collision shapes.
     #[command(
         after_help = "Examples:\n  dexwarp robot robots/human_hand.urdf\n  dexwarp robot robots/parallel_gripper.urdf"
@@ -217,6 +262,24 @@ fn positive_mm(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
+/// The folder holding `scenes/` and `robots/`: the current folder, or the source tree this
+/// binary was built from.
+fn repository_root() -> Result<PathBuf> {
+    let here = std::env::current_dir()?;
+    if here.join("scenes/configs").is_dir() {
+        return Ok(here);
+    }
+    let built = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    if built.join("scenes/configs").is_dir() {
+        return Ok(built);
+    }
+    anyhow::bail!(
+        "no scenes/configs in {} or {}; run dexwarp reproduce from the repository root",
+        here.display(),
+        built.display()
+    )
+}
+
 fn fraction(s: &str) -> std::result::Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
@@ -240,6 +303,66 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     let limits = cli.limits.limits();
     match cli.command {
+        Command::Reproduce { out, quick, jobs } => {
+            let root = repository_root()?;
+            let rep = dexwarp::reproduce::run(&dexwarp::reproduce::ReproduceOptions {
+                out: out.clone(),
+                root,
+                quick,
+                jobs,
+                limits,
+                progress: true,
+            })?;
+            let failed = rep.runs.iter().filter(|r| r.report.error.is_some()).count();
+            let passed = rep
+                .runs
+                .iter()
+                .filter(|r| {
+                    r.report
+                        .physics
+                        .as_ref()
+                        .is_some_and(|p| p.verdict == "pass")
+                })
+                .count();
+            eprintln!(
+                "{} runs in {:.1} s: {passed} physics pass, {failed} failed to run; tables in {}, report {}",
+                rep.runs.len(),
+                rep.seconds,
+                out.join("summary.md").display(),
+                out.join("index.html").display()
+            );
+            Ok(())
+        }
+        Command::Synth {
+            object,
+            robot,
+            motion,
+            out,
+            mesh,
+            seed,
+            noise_mm,
+        } => {
+            let syn = dexwarp::synth::defaults::run(
+                &dexwarp::synth::defaults::SynthRequest {
+                    object,
+                    robot,
+                    motion,
+                    out: out.clone(),
+                    mesh,
+                    seed,
+                    noise_mm,
+                },
+                &limits,
+            )?;
+            eprintln!(
+                "wrote {} ({} frames, {} correspondences per in-contact frame, D_C {:.2} mm)",
+                out.display(),
+                syn.demo.frames.len(),
+                syn.stats.contacts_per_frame,
+                syn.stats.d_c_mm
+            );
+            Ok(())
+        }
         Command::Robot { urdf } => {
             let robot = Robot::from_urdf_file(&urdf, &limits)?;
             print!("{}", robot.describe());

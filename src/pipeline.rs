@@ -20,7 +20,7 @@ use rapier3d_f64::parry::shape::SharedShape;
 
 use crate::geometry::Mesh;
 use crate::hand::ik::{self, Solver};
-use crate::hand::{HandPath, baseline};
+use crate::hand::{HandPath, baseline, smooth};
 use crate::math::convert::to_pose;
 use crate::metrics;
 use crate::model::report::{
@@ -149,6 +149,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let base = baseline::run(demo, &object)
         .map_err(|e| Error::invalid(&config.source, "(hand)", e.to_string()))?;
     timing.insert("baseline".into(), clock.elapsed().as_secs_f64());
+    let mut unsmoothed: Option<HandPath> = None;
     let (hand, ik_stats) = match options.hand {
         HandMethod::Baseline => (base, None),
         HandMethod::Contact => {
@@ -160,8 +161,16 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
                 steepness: config.params.steepness,
                 ..ik::Params::default()
             };
-            let (hand, stats) = ik::run(robot, demo, &object, &base, &shapes, None, &params);
+            let (raw, stats) = ik::run(robot, demo, &object, &base, &shapes, None, &params);
             timing.insert("ik".into(), stats.time_s);
+
+            // Stage 5: smoothing inside the contact segment.
+            let clock = Instant::now();
+            let range = object.plan.segment.start..=object.plan.t_end_new();
+            let (hand, _) = smooth::run(&raw, range, &smooth::Params::default())
+                .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
+            timing.insert("smooth".into(), clock.elapsed().as_secs_f64());
+            unsmoothed = Some(raw);
             (hand, Some(stats))
         }
     };
@@ -193,6 +202,17 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let dc_frames = metrics::contact_distance_per_frame_mm(robot, &out);
     let mut report = report(demo, &out, &dc_frames, robot, &object, &barriers, mesh)?;
     let mut frames = frame_rows(&out, &object, &dc_frames);
+    if let Some(raw) = &unsmoothed {
+        // D_C before smoothing (the paper's drift is the difference).
+        let before = metrics::contact_distance_per_frame_mm(
+            robot,
+            &assemble(demo, &object, raw, &config.name),
+        );
+        report.metrics.d_c_mm.unsmoothed = metrics::d_c_mm(&before);
+        for (r, v) in frames.iter_mut().zip(&before) {
+            r.d_c_unsmoothed_mm = *v;
+        }
+    }
     report.config = Some(config.source.display().to_string());
     report.threshold_mm = Some(threshold);
     report.hand = Some(options.hand.as_str().into());
@@ -352,6 +372,7 @@ fn report(
                 original: dc_orig,
                 unsmoothed: dc_out,
                 warped: dc_out,
+                uncorrupted: None,
             },
             plr_object: metrics::ratio(
                 metrics::object_path_length(out),
@@ -368,6 +389,8 @@ fn report(
             min_object_barrier_clearance_mm: min_clearance,
             object_radius_mm: object.barrier.stats.object_radius_m * 1e3,
             pushout_frames_moved: object.barrier.stats.frames_moved,
+            pushout_sweeps: object.barrier.stats.sweeps,
+            pushout_max_mm: object.barrier.stats.max_push_m * 1e3,
             narrow_gap: object.barrier.stats.narrow_gap.clone(),
             contact_gap_frames: plan.segment.gap_frames,
         },
@@ -521,6 +544,7 @@ pub fn validate(
                 original: d_c,
                 unsmoothed: d_c,
                 warped: d_c,
+                uncorrupted: None,
             },
             plr_object: 1.0,
             plr_hand: 1.0,

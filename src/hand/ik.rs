@@ -35,7 +35,10 @@
 //! non-zero Jacobian columns of each link (wrist + its chain), Marquardt scaling
 //! `μ·diag(H)`, Nielsen's damping update, and a Cholesky factorization into preallocated
 //! storage; joints at a limit whose gradient pushes outward are frozen for the step, and
-//! every trial is clamped to the limits. Each linear solve counts as one iteration.
+//! every trial is clamped to the limits. Each linear solve counts as one iteration. LM also
+//! stops early, not converged, at a local minimum that misses the threshold (an accepted
+//! step lowers `F` by less than 1e-6 of itself, or the step vanishes): typically a barrier
+//! the hand cannot clear while keeping its contacts.
 //!
 //! **`adam`**: the paper's solver, faithful: Adam (β = 0.9, 0.999, ε = 1e-8, learning rate
 //! 0.01, moments reset every frame) on exactly `F` (no proximal term), with the parameter
@@ -67,6 +70,10 @@ const TRANSLATION_SCALE_M: f64 = 0.1;
 const MU_INIT: f64 = 1e-3;
 /// Damping beyond which LM gives up (the model no longer predicts any decrease).
 const MU_MAX: f64 = 1e12;
+/// LM stops (not converged) when an accepted step lowers `F` by less than this fraction...
+const STALL_DECREASE: f64 = 1e-6;
+/// ... or when its largest component is below this [m or rad].
+const STALL_STEP: f64 = 1e-10;
 
 /// The optimizer of the per-frame problem.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -546,8 +553,12 @@ impl<'a> IkSolver<'a> {
             let e = self.evaluate(false, object_pose, contacts, wrist, q);
             (false, e)
         };
-        let robot = self.geo.robot;
-        robot.forward_kinematics(wrist, q, &mut self.poses);
+        let clearance = if self.geo.barriers.is_empty() {
+            None
+        } else {
+            self.geo.robot.forward_kinematics(wrist, q, &mut self.poses);
+            self.geo.min_clearance(&self.poses)
+        };
         let n = contacts.len();
         FrameResult {
             converged,
@@ -555,7 +566,7 @@ impl<'a> IkSolver<'a> {
             contacts: n,
             mean_mm: eval.mean_m(n) * 1e3,
             max_mm: eval.max_m * 1e3,
-            min_barrier_clearance_mm: self.geo.min_clearance(&self.poses).map(|d| d * 1e3),
+            min_barrier_clearance_mm: clearance.map(|d| d * 1e3),
             non_finite: !finite,
         }
     }
@@ -736,6 +747,7 @@ impl<'a> IkSolver<'a> {
         let mut iterations = 0;
         let (mut mu, mut nu) = (MU_INIT, 2.0);
         let mut stale = true;
+        let mut stalled = false;
         loop {
             if cur.mean_m(nc) < threshold {
                 return (true, iterations, cur);
@@ -816,6 +828,9 @@ impl<'a> IkSolver<'a> {
             self.q_trial = q_trial;
             let gain = (cur.total(nc) - next.total(nc)) / pred.max(1e-300);
             if gain > 0.0 && next.total(nc).is_finite() {
+                // A decrease below STALL_DECREASE of F cannot carry the frame to the
+                // threshold in any useful number of iterations: a local minimum.
+                stalled = cur.total(nc) - next.total(nc) < STALL_DECREASE * cur.total(nc);
                 *wrist = trial_wrist;
                 q.copy_from_slice(&self.q_trial);
                 std::mem::swap(&mut self.poses, &mut self.trial_poses);
@@ -827,8 +842,8 @@ impl<'a> IkSolver<'a> {
                 mu *= nu;
                 nu *= 2.0;
             }
-            if self.step.amax() < 1e-12 {
-                // The step vanished without meeting the threshold: a local minimum.
+            if (stalled || self.step.amax() < STALL_STEP) && cur.mean_m(nc) >= threshold {
+                // No progress without meeting the threshold: a local minimum.
                 return (false, iterations, cur);
             }
         }
@@ -1077,4 +1092,150 @@ pub fn run(
         .reduce(f64::min);
     stats.time_s = clock.elapsed().as_secs_f64();
     (out, stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Limits;
+    use crate::robot::ShapeKind;
+    use nalgebra::{Translation3, UnitQuaternion};
+
+    fn hand() -> Robot {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
+        Robot::from_urdf_file(&path, &Limits::default()).expect("human_hand loads")
+    }
+
+    /// The analytic gradient of `F` (Adam) and the LM model gradient `2g` (IRLS, so it
+    /// touches `F`) agree with central differences of `F` in the tangent parameterization,
+    /// with every term active: contacts, a barrier box overlapping the palm, and the
+    /// penetration term against a ball the fingers enter.
+    #[test]
+    fn gradients_match_finite_differences() {
+        let robot = hand();
+        let mut q = robot.neutral_q();
+        for (i, v) in q.iter_mut().enumerate() {
+            *v += 0.05 * ((i * 7 % 5) as f64 - 2.0);
+        }
+        robot.clamp(&mut q);
+        let wrist = Isometry3::from_parts(
+            Translation3::new(0.1, -0.2, 0.9),
+            UnitQuaternion::from_euler_angles(0.3, -0.2, 0.5),
+        );
+        let mut poses = robot.new_link_poses();
+        robot.forward_kinematics(&wrist, &q, &mut poses);
+        let object_pose = Isometry3::from_parts(
+            Translation3::from(
+                poses[robot.link_id("index_tip").unwrap().index()]
+                    .translation
+                    .vector,
+            ),
+            UnitQuaternion::from_euler_angles(0.1, 0.2, 0.3),
+        );
+        // Contacts: a few surface points per finger link, object points 1-5 mm away.
+        let mut contacts = Vec::new();
+        for (l, link) in robot.links().iter().enumerate() {
+            for (k, p) in link.surface_points.iter().enumerate().step_by(37) {
+                let off = Vector3::new(0.001 * (k % 5) as f64, -0.002, 0.003);
+                let world = poses[l] * p + off;
+                contacts.push(ResolvedContact {
+                    link: LinkId(l as u32),
+                    hand_point: *p,
+                    object_point: object_pose.inverse() * world,
+                });
+            }
+        }
+        let palm = poses[robot.root().index()];
+        let barrier = CollisionShape::new(
+            ShapeKind::Box {
+                size: Vector3::new(0.03, 0.1, 0.1),
+            },
+            palm * Isometry3::translation(-0.03, 0.0, 0.03),
+        )
+        .unwrap();
+        let barriers = [barrier];
+        let ball =
+            CollisionShape::new(ShapeKind::Sphere { radius: 0.02 }, Isometry3::identity()).unwrap();
+        for solver in [Solver::Adam, Solver::Lm] {
+            let params = Params {
+                solver,
+                regularization: 0.0,
+                penetration_weight: 0.5,
+                steepness: 3.0,
+                ..Params::default()
+            };
+            let mut ik = IkSolver::new(&robot, &barriers, Some(&ball), params);
+            ik.wrist0 = wrist;
+            ik.q0.copy_from_slice(&q);
+            ik.object_obstacle = Some(Obstacle::new(&ball, &(object_pose * ball.shape_pose)));
+            let e = ik.evaluate(false, &object_pose, &contacts, &wrist, &q);
+            assert!(e.barrier > 0.0 && e.penetration > 0.0, "{e:?}");
+            let analytic: Vec<f64> = match solver {
+                Solver::Adam => {
+                    ik.gradient(&object_pose, &contacts);
+                    ik.g.iter().copied().collect()
+                }
+                Solver::Lm => {
+                    ik.linearize(&object_pose, &contacts, &wrist, &q);
+                    ik.g.iter().map(|v| 2.0 * v).collect()
+                }
+            };
+            let n = contacts.len();
+            let h = 1e-7;
+            for k in 0..ik.n {
+                let mut f = |sign: f64| {
+                    let (mut w, mut qq) = (wrist, q.clone());
+                    let mut d = [0.0; 6];
+                    if k < WRIST_DOF {
+                        d[k] = sign * h;
+                    } else {
+                        qq[k - WRIST_DOF] += sign * h;
+                    }
+                    apply_wrist_step(
+                        &mut w,
+                        &Vector3::new(d[0], d[1], d[2]),
+                        &Vector3::new(d[3], d[4], d[5]),
+                    );
+                    ik.evaluate(false, &object_pose, &contacts, &w, &qq)
+                        .total(n)
+                };
+                let fd = (f(1.0) - f(-1.0)) / (2.0 * h);
+                let err = (fd - analytic[k]).abs();
+                assert!(
+                    err < 1e-5 * (1.0 + fd.abs()),
+                    "{solver:?}, column {k}: analytic {} vs finite difference {fd}",
+                    analytic[k]
+                );
+            }
+        }
+    }
+
+    /// A joint at its limit whose gradient points outward stays there; the solver never
+    /// leaves the limits.
+    #[test]
+    fn joint_limits_hold() {
+        let robot = hand();
+        let q_lo: Vec<f64> = robot.lower().to_vec();
+        let wrist = Isometry3::translation(0.0, 0.0, 1.0);
+        let mut poses = robot.new_link_poses();
+        robot.forward_kinematics(&wrist, &q_lo, &mut poses);
+        // Targets that would need the fingers beyond their lower limits (bent backwards).
+        let tip = robot.link_id("index_tip").unwrap();
+        let target = poses[tip.index()] * Point3::new(-0.03, 0.0, 0.0);
+        let contacts = [ResolvedContact {
+            link: tip,
+            hand_point: Point3::origin(),
+            object_point: target,
+        }];
+        let mut ik = IkSolver::new(&robot, &[], None, Params::default());
+        let (mut w, mut q) = (wrist, q_lo.clone());
+        let r = ik.solve(&Isometry3::identity(), &contacts, &mut w, &mut q);
+        assert!(r.mean_mm < 3.5 || !r.converged);
+        for (j, v) in q.iter().enumerate() {
+            assert!(
+                *v >= robot.lower()[j] && *v <= robot.upper()[j],
+                "joint {j}: {v}"
+            );
+        }
+    }
 }

@@ -26,6 +26,10 @@ pub struct ContactDistance {
     /// Before smoothing (equal to `warped` when the hand is not smoothed, e.g. baseline).
     pub unsmoothed: f64,
     pub warped: f64,
+    /// Robustness runs: the output measured against the demonstration's uncorrupted
+    /// correspondences (the hand was recovered from corrupted ones).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncorrupted: Option<f64>,
 }
 
 /// The paper's metrics.
@@ -56,6 +60,10 @@ pub struct Constraints {
     pub object_radius_mm: f64,
     /// Frames moved by the barrier push-out.
     pub pushout_frames_moved: usize,
+    /// Sweeps over all barriers the push-out needed.
+    pub pushout_sweeps: usize,
+    /// Largest distance the push-out moved a frame [mm].
+    pub pushout_max_mm: f64,
     /// The push-out's narrow-gap failure, when it happened.
     pub narrow_gap: Option<NarrowGap>,
     /// In-contact input frames without correspondences (the segment is treated as one).

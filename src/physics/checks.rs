@@ -3,9 +3,9 @@
 //! - **Tracking**: per frame, `e_p = ‖p_sim − p_demo‖` and `e_R = angle(R_sim⁻¹ R_demo)`.
 //! - **Drop**: the first frame of the contact segment `[c0, c1]` with `e_p` above
 //!   [`Params::drop_error_m`]; the cause is [`DropCause::LostContact`] when the hand does not
-//!   touch the simulated object there (parry distance from the hand at that frame to the
-//!   simulated object above skin + tolerance),
-//!   [`DropCause::Slipped`] otherwise.
+//!   touch the simulated object there or within the next 0.2 s (parry distance from the
+//!   hand to the simulated object above skin + tolerance), [`DropCause::Slipped`] when it
+//!   keeps touching it (the object moved in the grasp).
 //! - **Penetration**: parry `contact` queries at the demonstration's poses (not Rapier's
 //!   cached manifolds, which recycling leaves stale, and not the simulated poses, which the
 //!   solver has already pushed apart): hand link shapes against the object's convex parts,
@@ -15,8 +15,9 @@
 //!   world with the hand frozen at that frame, the object at the demonstration's pose,
 //!   gravity and no support or barrier; the object's displacement after
 //!   [`Params::stability_steps`] steps of [`Params::stability_dt_s`].
-//! - **Release**: after the last contact frame, the object must end at rest within
-//!   [`Params::support_gap_m`] of a support.
+//! - **Release**: after the last contact frame, the object must end within
+//!   [`Params::support_gap_m`] of a support and move less than [`Params::rest_motion_m`] over
+//!   the last [`Params::rest_window_s`].
 
 use nalgebra::{Isometry3, Vector3};
 use rapier3d_f64::parry::bounding_volume::{Aabb, BoundingVolume};
@@ -63,29 +64,38 @@ pub fn tracking_errors(
     (pos, rot, tracking)
 }
 
-/// The first drop inside `segment` (see the module docs).
+/// The first drop inside `segment` (see the module docs). `window` is how many frames after
+/// the drop frame are searched for the moment the hand lets go: an object that slides out
+/// between opening fingers still grazes them for a few frames when its error passes the
+/// limit.
 pub fn find_drop(
     segment: ContactSegment,
     position_error: &[f64],
     touching: &[bool],
+    window: usize,
     params: &Params,
 ) -> Option<Drop> {
-    let end = segment.end.min(position_error.len().saturating_sub(1));
+    let last = position_error.len().saturating_sub(1);
+    let end = segment.end.min(last);
     let frame = (segment.start..=end).find(|&f| position_error[f] > params.drop_error_m)?;
-    let (cause, contact_lost_frame) = if touching[frame] {
-        (DropCause::Slipped, None)
+    let lost = if touching[frame] {
+        (frame..=(frame + window).min(last)).find(|&f| !touching[f])
     } else {
         let mut first = frame;
         while first > segment.start && !touching[first - 1] {
             first -= 1;
         }
-        (DropCause::LostContact, Some(first))
+        Some(first)
     };
     Some(Drop {
         frame,
-        cause,
+        cause: if lost.is_some() {
+            DropCause::LostContact
+        } else {
+            DropCause::Slipped
+        },
         position_error_mm: position_error[frame] * 1e3,
-        contact_lost_frame,
+        contact_lost_frame: lost,
     })
 }
 
@@ -213,11 +223,7 @@ pub fn place_hand<'a>(
 }
 
 /// Fills `out` with the object's convex parts at `pose`, owner 0.
-pub fn place_object<'a>(
-    object: &'a ObjectShape,
-    pose: &Isometry3<f64>,
-    out: &mut Vec<Placed<'a>>,
-) {
+pub fn place_object<'a>(object: &'a ObjectShape, pose: &Isometry3<f64>, out: &mut Vec<Placed<'a>>) {
     out.clear();
     let pose = to_pose(pose);
     for part in &object.parts {
@@ -227,7 +233,12 @@ pub fn place_object<'a>(
 
 /// `true` when some placed hand shape is within `reach` [m] of the object at `pose`
 /// (parry distance, AABB pre-test).
-pub fn hand_touches(hand: &[Placed<'_>], object: &ObjectShape, pose: &Isometry3<f64>, reach: f64) -> bool {
+pub fn hand_touches(
+    hand: &[Placed<'_>],
+    object: &ObjectShape,
+    pose: &Isometry3<f64>,
+    reach: f64,
+) -> bool {
     let pose = to_pose(pose);
     let aabb = object.compound.compute_aabb(&pose).loosened(reach);
     hand.iter().any(|h| {
@@ -284,12 +295,19 @@ pub fn stability_frames(segment: ContactSegment, samples: usize) -> Vec<usize> {
 /// Collects stability results into a [`Stability`].
 pub fn stability_stats(frames: Vec<usize>, displacement_m: &[f64], params: &Params) -> Stability {
     let mm: Vec<f64> = displacement_m.iter().map(|d| d * 1e3).collect();
-    let (max_frame, max_mm) = frames
-        .iter()
-        .zip(&mm)
-        .fold((None, 0.0f64), |b, (&f, &d)| if d > b.1 || b.0.is_none() { (Some(f), d) } else { b });
+    let (max_frame, max_mm) = frames.iter().zip(&mm).fold((None, 0.0f64), |b, (&f, &d)| {
+        if d > b.1 || b.0.is_none() {
+            (Some(f), d)
+        } else {
+            b
+        }
+    });
     Stability {
-        mean_mm: if mm.is_empty() { 0.0 } else { mm.iter().sum::<f64>() / mm.len() as f64 },
+        mean_mm: if mm.is_empty() {
+            0.0
+        } else {
+            mm.iter().sum::<f64>() / mm.len() as f64
+        },
         max_mm,
         max_frame,
         frames,

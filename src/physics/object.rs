@@ -47,9 +47,10 @@ pub struct ObjectShape {
     pub parts: Vec<SharedShape>,
     /// The same parts as one compound, for the Rapier collider.
     pub compound: SharedShape,
+    /// How the parts were obtained.
     pub method: ShapeMethod,
-    /// Wall time of the decomposition when it was computed [s] (0 for a cache hit is not
-    /// reported here: see [`object_shape`]'s second value).
+    /// Wall time of the decomposition when it was first computed [s]; a cache hit returns
+    /// the same value (see [`object_shape`]'s flag).
     pub build_s: f64,
 }
 
@@ -106,12 +107,8 @@ fn build(mesh: &Mesh, params: &DecompositionParams) -> Option<ObjectShape> {
             _ => (vec![hull], ShapeMethod::HullFallback),
         }
     };
-    let compound = SharedShape::compound(
-        parts
-            .iter()
-            .map(|p| (Pose::IDENTITY, p.clone()))
-            .collect(),
-    );
+    let compound =
+        SharedShape::compound(parts.iter().map(|p| (Pose::IDENTITY, p.clone())).collect());
     Some(ObjectShape {
         parts,
         compound,

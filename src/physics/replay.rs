@@ -54,12 +54,20 @@ pub fn hand_between(
     q: &mut [f64],
     link_poses: &mut [Isometry3<f64>],
 ) {
-    let t = a.wrist.translation.vector.lerp(&b.wrist.translation.vector, u);
+    let t = a
+        .wrist
+        .translation
+        .vector
+        .lerp(&b.wrist.translation.vector, u);
     let r = slerp_shortest(&a.wrist.rotation, &b.wrist.rotation, u);
     for ((qk, qa), qb) in q.iter_mut().zip(&a.joints).zip(&b.joints) {
         *qk = qa + (qb - qa) * u;
     }
-    robot.forward_kinematics(&Isometry3::from_parts(Translation3::from(t), r), q, link_poses);
+    robot.forward_kinematics(
+        &Isometry3::from_parts(Translation3::from(t), r),
+        q,
+        link_poses,
+    );
 }
 
 /// Replays `demo` in `world` (built with the hand at frame 0) with `n` steps per frame.
@@ -95,7 +103,7 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
             break;
         }
         trace.object.push(pose);
-            trace.speed_m_s.push(world.object_speed());
+        trace.speed_m_s.push(world.object_speed());
     }
     trace
 }

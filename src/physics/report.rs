@@ -97,11 +97,14 @@ pub struct Stability {
 pub struct Release {
     /// The last contact frame (c1).
     pub frame: usize,
-    /// At the last frame the object is at rest within the gap of a support.
+    /// At the last frame the object is within the gap of a support and has stayed put over
+    /// the rest window.
     pub rests_on_support: bool,
     /// The nearest support and its distance at the last frame.
     pub support: Option<String>,
     pub support_gap_mm: Option<f64>,
+    /// Largest distance of the object from its final position over the rest window [mm].
+    pub final_motion_mm: f64,
     /// Object speed at the last frame [m/s].
     pub final_speed_m_s: f64,
 }

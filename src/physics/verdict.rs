@@ -15,7 +15,7 @@ pub(crate) fn reasons(report: &PhysicsReport, params: &Params) -> Vec<String> {
     if let Some(d) = &report.drop {
         out.push(match d.cause {
             DropCause::LostContact => format!(
-                "object dropped at frame {}: position error {:.1} mm > {:.1} mm with no hand contact since frame {}",
+                "object dropped at frame {}: position error {:.1} mm > {:.1} mm; the hand lost contact at frame {}",
                 d.frame,
                 d.position_error_mm,
                 params.drop_error_m * 1e3,
@@ -78,8 +78,8 @@ pub(crate) fn reasons(report: &PhysicsReport, params: &Params) -> Vec<String> {
             _ => "the scene has no support".to_string(),
         };
         out.push(format!(
-            "released unsupported: after the last contact frame {} the object ends not resting on a support (speed {:.3} m/s, {nearest})",
-            r.frame, r.final_speed_m_s
+            "released unsupported: after the last contact frame {} the object does not come to rest on a support (it moves {:.1} mm over the last {:.1} s, {nearest})",
+            r.frame, r.final_motion_mm, params.rest_window_s
         ));
     }
     out

@@ -261,7 +261,7 @@ fn plots(rep: &Reproduction) -> Vec<(String, String)> {
                             && r.variant.name == format!("robust_{kind}_{pct:03}")
                             && r.report.error.is_none()
                     })
-                    .map(|r| (pct as f64, r.report.metrics.d_c_mm.warped))
+                    .and_then(|r| r.report.metrics.d_c_mm.uncorrupted.map(|d| (pct as f64, d)))
             })
             .collect()
     };

@@ -32,6 +32,8 @@ use crate::{Error, Limits, Result};
 pub const THRESHOLDS_MM: [f64; 3] = [10.0, 5.0, 3.5];
 /// The config of the robustness sweep.
 pub const ROBUSTNESS_CONFIG: &str = "teapot_pour_cups_wall";
+/// Seed of the robustness corruption (deterministic sweeps).
+pub const ROBUSTNESS_SEED: u64 = 7;
 
 /// Options of a reproduction.
 #[derive(Clone, Debug)]
@@ -215,9 +217,11 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
     let dir = options.out.join("runs").join(&name).join(&variant.name);
     let result = (|| -> Result<Report> {
         let mut inputs = Inputs::load(config, None, &options.limits)?;
-        if let Some((kind, fraction)) = variant.corruption {
-            inputs.demo = corrupt(&inputs.demo, kind, fraction, 7);
-        }
+        let clean = variant.corruption.map(|(kind, fraction)| {
+            let clean = inputs.demo.clone();
+            inputs.demo = corrupt(&clean, kind, fraction, ROBUSTNESS_SEED);
+            clean
+        });
         let run = pipeline::warp(
             &inputs,
             &Options {
@@ -229,6 +233,13 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
                 limits: options.limits,
             },
         )?;
+        let mut report = run.report.clone();
+        if let Some(clean) = &clean {
+            let judged = pipeline::assemble(clean, &run.object, &run.hand, &run.demo.name);
+            let dc = crate::metrics::contact_distance_per_frame_mm(&inputs.robot, &judged);
+            report.metrics.d_c_mm.uncorrupted = Some(crate::metrics::d_c_mm(&dc));
+        }
+        let run = pipeline::WarpRun { report, ..run };
         crate::output::write_run(&dir, &run)?;
         Ok(run.report)
     })();

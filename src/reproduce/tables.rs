@@ -340,8 +340,8 @@ pub fn robustness_table(rep: &Reproduction) -> Table {
         }
         t.rows.push(vec![
             format!("{pct}%"),
-            cell(d.map(|r| r.metrics.d_c_mm.warped), 2),
-            cell(p.map(|r| r.metrics.d_c_mm.warped), 2),
+            cell(d.and_then(|r| r.metrics.d_c_mm.uncorrupted), 2),
+            cell(p.and_then(|r| r.metrics.d_c_mm.uncorrupted), 2),
         ]);
     }
     t

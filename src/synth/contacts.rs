@@ -8,11 +8,18 @@
 //! [Lakshmipathy et al. 2025] thresholds hand-object distances the same way), so a
 //! correspondence's own distance is the hand-object gap there, 0 to `max_distance_mm`.
 //!
-//! Noise: every object point of every frame gets an independent isotropic Gaussian offset of
-//! standard deviation `noise_mm` per axis (a ChaCha8 stream seeded with
-//! [`ContactParams::seed`]; Box-Muller), which mimics the jitter of motion-captured markers
-//! and object poses. The mean correspondence distance then grows from the gap alone (about
-//! 2 mm) toward `≈ 1.6 σ` for large σ (the mean norm of a 3-D Gaussian is `σ·√(8/π)`).
+//! Noise mimics motion capture, whose error is mostly a tracking error of the object (or hand)
+//! pose, shared by all correspondences of a frame and drifting slowly, plus a little jitter
+//! per point. Frame `i`'s object points get the shared offset
+//! `o(i) = A·(±1 + ½ Σ_{k=1..3} a_k sin(2π f_k i/fps + φ_k))·d` along the grasp's slide
+//! direction `d` (object frame: a direction the grasp can slide along without pressing into
+//! the object, so that a hand fitted to the noisy points does not penetrate; `A` =
+//! [`ContactParams::offset_mm`], seeded sign, `a_k ∈ [−1, 1]`, `f_k ∈ [0.1, 0.5]` Hz and
+//! phases `φ_k`) plus an
+//! independent isotropic Gaussian of σ = [`ContactParams::noise_mm`] per axis on each point
+//! (Box-Muller on a ChaCha8 stream seeded with [`ContactParams::seed`]). The recorded hand
+//! itself is exact (no penetration); a contact IK can fit the shared offset, which is why the
+//! paper's warped `D_C` can fall below the original's.
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use rand::{RngExt, SeedableRng};
@@ -29,8 +36,11 @@ pub struct ContactParams {
     pub max_distance_mm: f64,
     /// Spacing of the hand surface points [mm]. Default 6.
     pub spacing_mm: f64,
-    /// Standard deviation of the object-point noise, per axis [mm]. Default 0.
+    /// Standard deviation of the per-point noise, per axis [mm]. Default 0.
     pub noise_mm: f64,
+    /// Magnitude `A` of the shared, slowly drifting offset of a frame's object points [mm].
+    /// Default 0.
+    pub offset_mm: f64,
     /// Seed of the noise.
     pub seed: u64,
 }
@@ -41,6 +51,7 @@ impl Default for ContactParams {
             max_distance_mm: 5.0,
             spacing_mm: 6.0,
             noise_mm: 0.0,
+            offset_mm: 0.0,
             seed: 1,
         }
     }
@@ -101,19 +112,37 @@ pub fn extract(
     out
 }
 
-/// A seeded source of Gaussian noise.
+/// A seeded source of correspondence noise (see the module docs).
 #[derive(Debug)]
 pub struct Noise {
     rng: ChaCha8Rng,
     sigma_m: f64,
+    offset_m: f64,
+    /// Sign and `(a_k, f_k [Hz], φ_k)` of the shared offset.
+    drift: (f64, [(f64, f64, f64); 3]),
+    /// Unit slide direction, object frame.
+    axis: Vector3<f64>,
 }
 
 impl Noise {
-    /// Noise of standard deviation `sigma_m` per axis, seeded.
-    pub fn new(seed: u64, sigma_m: f64) -> Noise {
+    /// Noise of per-point standard deviation `sigma_m` per axis and shared offset magnitude
+    /// `offset_m` along `axis` (object frame), seeded.
+    pub fn new(seed: u64, sigma_m: f64, offset_m: f64, axis: Vector3<f64>) -> Noise {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let sign = if rng.random::<f64>() < 0.5 { -1.0 } else { 1.0 };
+        let mut terms = [(0.0, 0.0, 0.0); 3];
+        for t in &mut terms {
+            let a = rng.random::<f64>() * 2.0 - 1.0;
+            let f = 0.1 + 0.4 * rng.random::<f64>();
+            let phase = std::f64::consts::TAU * rng.random::<f64>();
+            *t = (a, f, phase);
+        }
         Noise {
-            rng: ChaCha8Rng::seed_from_u64(seed),
+            rng,
             sigma_m,
+            offset_m,
+            drift: (sign, terms),
+            axis: axis.try_normalize(1e-12).unwrap_or_else(Vector3::z),
         }
     }
 
@@ -124,7 +153,7 @@ impl Noise {
         (-2.0 * (1.0 - u1).ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     }
 
-    /// An isotropic Gaussian offset.
+    /// An isotropic Gaussian offset of the per-point σ.
     pub fn offset(&mut self) -> Vector3<f64> {
         if self.sigma_m == 0.0 {
             return Vector3::zeros();
@@ -132,10 +161,25 @@ impl Noise {
         Vector3::new(self.standard(), self.standard(), self.standard()) * self.sigma_m
     }
 
-    /// Adds an offset to every object point.
-    pub fn perturb(&mut self, contacts: &mut [Contact]) {
+    /// The shared offset of frame `i` at `fps`, object frame [m].
+    pub fn shared(&self, i: usize, fps: f64) -> Vector3<f64> {
+        if self.offset_m == 0.0 {
+            return Vector3::zeros();
+        }
+        let t = i as f64 / fps;
+        let (sign, terms) = &self.drift;
+        let wave: f64 = terms
+            .iter()
+            .map(|(a, f, p)| a * (std::f64::consts::TAU * f * t + p).sin())
+            .sum();
+        self.axis * ((sign + 0.5 * wave) * self.offset_m)
+    }
+
+    /// Adds the shared offset of frame `i` and per-point noise to every object point.
+    pub fn perturb(&mut self, contacts: &mut [Contact], i: usize, fps: f64) {
+        let shared = self.shared(i, fps);
         for c in contacts {
-            c.object_point += self.offset();
+            c.object_point += shared + self.offset();
         }
     }
 }
@@ -146,14 +190,14 @@ mod tests {
 
     #[test]
     fn noise_is_seeded_and_has_the_asked_spread() {
-        let mut a = Noise::new(7, 0.004);
-        let mut b = Noise::new(7, 0.004);
+        let mut a = Noise::new(7, 0.004, 0.0, Vector3::z());
+        let mut b = Noise::new(7, 0.004, 0.0, Vector3::z());
         let xs: Vec<_> = (0..4000).map(|_| a.offset()).collect();
         let ys: Vec<_> = (0..4000).map(|_| b.offset()).collect();
         assert_eq!(xs, ys);
         let var = xs.iter().map(|v| v.norm_squared()).sum::<f64>() / (3.0 * xs.len() as f64);
         assert!((var.sqrt() - 0.004).abs() < 2e-4, "sigma {}", var.sqrt());
-        let mut c = Noise::new(8, 0.004);
+        let mut c = Noise::new(8, 0.004, 0.0, Vector3::z());
         assert_ne!(xs[0], c.offset());
     }
 }

@@ -96,6 +96,9 @@ pub struct GraspTemplate {
     pub open: Vec<(&'static str, f64)>,
     /// Direction the hand comes from, object frame (unit or not; scaled by the timing).
     pub approach: [f64; 3],
+    /// A direction the grasp can slide along without pressing into the object (object
+    /// frame), for the motion-capture drift of [`super::contacts::Noise`].
+    pub slide: [f64; 3],
 }
 
 /// Tunables of the grasp solve.
@@ -196,9 +199,9 @@ pub fn hand_rotation(palm_normal: &Vector3<f64>, fingers: &Vector3<f64>) -> Unit
     let x = palm_normal.normalize();
     let z = (fingers - x * x.dot(fingers)).normalize();
     let y = z.cross(&x);
-    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
-        Matrix3::from_columns(&[x, y, z]),
-    ))
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(Matrix3::from_columns(
+        &[x, y, z],
+    )))
 }
 
 /// Joint vector from `(name, value)` pairs (others 0), clamped to the limits.
@@ -230,10 +233,9 @@ pub fn solve(
     let mut poses = robot.new_link_poses();
     robot.forward_kinematics(&Isometry3::identity(), &q0, &mut poses);
     let n = targets.len() as f64;
-    let hand_c = targets
-        .iter()
-        .fold(Vector3::zeros(), |a, t| a + (poses[t.link.index()] * t.hand_point).coords)
-        / n;
+    let hand_c = targets.iter().fold(Vector3::zeros(), |a, t| {
+        a + (poses[t.link.index()] * t.hand_point).coords
+    }) / n;
     let obj_c = targets
         .iter()
         .fold(Vector3::zeros(), |a, t| a + t.object_point.coords)
@@ -278,7 +280,8 @@ pub fn solve(
     }
     let (_, mut wrist, mut q, res) = best.expect("at least one initial orientation");
     // 3. Reached?
-    if !(res.mean_mm <= params.accept_mm) {
+    // NaN counts as unreachable.
+    if res.mean_mm.is_nan() || res.mean_mm > params.accept_mm {
         return Err(GraspFailure::Unreachable {
             mean_mm: res.mean_mm,
             accept_mm: params.accept_mm,
@@ -286,7 +289,14 @@ pub fn solve(
         });
     }
     // 4. Nudge out of penetration.
-    let nudges = nudge(robot, object, object_pose, &mut wrist, &mut q, params.max_depth_mm * 1e-3);
+    let nudges = nudge(
+        robot,
+        object,
+        object_pose,
+        &mut wrist,
+        &mut q,
+        params.max_depth_mm * 1e-3,
+    );
     robot.forward_kinematics(&wrist, &q, &mut poses);
     let pen = penetration(robot, &poses, object, object_pose);
     if pen.depth_m > params.max_depth_mm * 1e-3 + 1e-9 {
@@ -391,10 +401,16 @@ const TURNS: [(f64, f64); 7] = [
 
 /// The link ids of a robot's `<finger>_tip` frames that exist, for reports.
 pub fn tip_links(robot: &Robot) -> Vec<LinkId> {
-    ["thumb_tip", "index_tip", "middle_tip", "ring_tip", "little_tip"]
-        .iter()
-        .filter_map(|n| robot.link_id(n))
-        .collect()
+    [
+        "thumb_tip",
+        "index_tip",
+        "middle_tip",
+        "ring_tip",
+        "little_tip",
+    ]
+    .iter()
+    .filter_map(|n| robot.link_id(n))
+    .collect()
 }
 
 #[cfg(test)]
@@ -410,9 +426,23 @@ mod tests {
     fn print_grasps() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("robots");
         for (file, objects) in [
-            ("human_hand.urdf", vec![ObjectKind::Cube, ObjectKind::FryingPan, ObjectKind::Mug, ObjectKind::Teapot]),
-            ("allegro_hand.urdf", vec![ObjectKind::Apple, ObjectKind::Cube]),
-            ("parallel_gripper.urdf", vec![ObjectKind::SmallBox, ObjectKind::Cube]),
+            (
+                "human_hand.urdf",
+                vec![
+                    ObjectKind::Cube,
+                    ObjectKind::FryingPan,
+                    ObjectKind::Mug,
+                    ObjectKind::Teapot,
+                ],
+            ),
+            (
+                "allegro_hand.urdf",
+                vec![ObjectKind::Apple, ObjectKind::Cube],
+            ),
+            (
+                "parallel_gripper.urdf",
+                vec![ObjectKind::SmallBox, ObjectKind::Cube],
+            ),
         ] {
             let robot = Robot::from_urdf_file(&dir.join(file), &crate::Limits::default()).unwrap();
             let family = HandFamily::detect(&robot).unwrap();
@@ -420,26 +450,64 @@ mod tests {
                 let mesh = object.mesh();
                 let geo = ObjectGeometry::new(mesh.clone()).unwrap();
                 let shape = CollisionShape::new(
-                    ShapeKind::Mesh { path: "x.obj".into(), scale: Vector3::repeat(1.0), mesh: std::sync::Arc::new(mesh) },
+                    ShapeKind::Mesh {
+                        path: "x.obj".into(),
+                        scale: Vector3::repeat(1.0),
+                        mesh: std::sync::Arc::new(mesh),
+                    },
                     Isometry3::identity(),
-                ).unwrap();
+                )
+                .unwrap();
                 let pose = Isometry3::translation(0.0, 0.0, 0.9 - geo.min_z);
-                let table = CollisionShape::new(ShapeKind::Box { size: Vector3::new(2.0, 2.0, 0.1) }, Isometry3::translation(0.0, 0.0, 0.85)).unwrap();
+                let table = CollisionShape::new(
+                    ShapeKind::Box {
+                        size: Vector3::new(2.0, 2.0, 0.1),
+                    },
+                    Isometry3::translation(0.0, 0.0, 0.85),
+                )
+                .unwrap();
                 let t = template(family, object).unwrap();
                 let clock = std::time::Instant::now();
-                let r = solve(&robot, &t, &geo, &shape, &pose, std::slice::from_ref(&table), &GraspParams::default());
+                let r = solve(
+                    &robot,
+                    &t,
+                    &geo,
+                    &shape,
+                    &pose,
+                    std::slice::from_ref(&table),
+                    &GraspParams::default(),
+                );
                 match r {
                     Ok(g) => {
                         let mut poses = robot.new_link_poses();
                         let w = pose * g.wrist_in_object;
                         robot.forward_kinematics(&w, &g.q, &mut poses);
                         let samples = crate::synth::contacts::hand_samples(&robot, 0.006);
-                        let c = crate::synth::contacts::extract(&robot, &samples, &poses, &geo, &pose, 0.005);
+                        let c = crate::synth::contacts::extract(
+                            &robot, &samples, &poses, &geo, &pose, 0.005,
+                        );
                         let mut per: std::collections::BTreeMap<String, usize> = Default::default();
-                        for x in &c { *per.entry(x.link.clone()).or_default() += 1; }
-                        let lowest = poses.iter().map(|p| p.translation.z).fold(f64::INFINITY, f64::min);
-                        println!("{file} {object}: ik {:.2} mm in {} it, depth {:.2} mm after {} nudges, {} contacts {per:?}, lowest link origin z {:.3}, {:.2}s\n  wrist {:?}\n  q {:?}",
-                            g.ik_mean_mm, g.ik_iterations, g.depth_mm, g.nudges, c.len(), lowest, clock.elapsed().as_secs_f64(), g.wrist_in_object, g.q.iter().map(|v| (v*100.0).round()/100.0).collect::<Vec<_>>());
+                        for x in &c {
+                            *per.entry(x.link.clone()).or_default() += 1;
+                        }
+                        let lowest = poses
+                            .iter()
+                            .map(|p| p.translation.z)
+                            .fold(f64::INFINITY, f64::min);
+                        println!(
+                            "{file} {object}: ik {:.2} mm in {} it, depth {:.2} mm after {} nudges, {} contacts {per:?}, lowest link origin z {:.3}, {:.2}s\n  wrist {:?}\n  q {:?}",
+                            g.ik_mean_mm,
+                            g.ik_iterations,
+                            g.depth_mm,
+                            g.nudges,
+                            c.len(),
+                            lowest,
+                            clock.elapsed().as_secs_f64(),
+                            g.wrist_in_object,
+                            g.q.iter()
+                                .map(|v| (v * 100.0).round() / 100.0)
+                                .collect::<Vec<_>>()
+                        );
                     }
                     Err(e) => println!("{file} {object}: {e}"),
                 }

@@ -8,6 +8,8 @@
 //! - [`contacts`]: correspondence extraction and motion-capture noise.
 
 pub mod contacts;
+pub mod defaults;
+pub mod demo;
 pub mod grasp;
 pub mod motion;
 pub mod objects;

@@ -209,8 +209,7 @@ pub fn link_depth(
     for shape in &robot.link(link).collision {
         // Cheap reject: the shape's centre farther than the object's ball plus its extent.
         let centre = pose * Point3::from(shape.origin.translation.vector);
-        if (centre.coords - object_pose.translation.vector).norm() > reach + shape_extent(shape)
-        {
+        if (centre.coords - object_pose.translation.vector).norm() > reach + shape_extent(shape) {
             continue;
         }
         worst = worst.max(shape_depth(object, object_pose, shape, pose));

@@ -9,7 +9,7 @@
 //! |---|---|---|
 //! | five-finger | cube | from above: thumb on the near face, index and middle on the far face |
 //! | five-finger | frying pan | power grasp of the handle: palm on top, fingers wrapped under, thumb along the top toward the pan |
-//! | five-finger | mug | side wrap of the body (handle away): palm on the near side, fingers around one side, thumb on the other |
+//! | five-finger | mug | body from above: thumb on the near side, index, middle and ring on the far side, clear of the handle |
 //! | five-finger | teapot | handle pinch: thumb on one side of the handle's outer bar, index and middle on the other |
 //! | four-finger | apple | fingertip grasp from above: three fingers on the far side, thumb on the near side |
 //! | four-finger | cube | as the five-finger cube grasp |
@@ -119,6 +119,7 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             ]
             .concat(),
             approach: [-0.5, 0.0, 1.0],
+            slide: [0.0, 0.0, 1.0],
         },
         ObjectKind::FryingPan => GraspTemplate {
             palm_normal: [0.0, 0.0, -1.0],
@@ -139,38 +140,43 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
                 human_pad("ring_tip", [0.25, -0.004, -0.02]),
                 human_pad("little_tip", [0.27, -0.004, -0.02]),
             ],
-            open: [human_open(&all, 0.9), vec![("thumb_cmc_abd", 0.2)]].concat(),
+            open: [
+                human_open(&all, 0.9),
+                vec![("thumb_mcp_flex", -0.2), ("thumb_ip_flex", -0.3)],
+            ]
+            .concat(),
             approach: [0.0, 0.3, 1.0],
+            slide: [1.0, 0.0, 0.0],
         },
         ObjectKind::Mug => GraspTemplate {
-            palm_normal: [1.0, 0.0, 0.0],
-            fingers: [0.0, -1.0, 0.0],
+            palm_normal: [0.0, 0.0, -1.0],
+            fingers: [0.0, 1.0, 0.0],
             preshape: [
-                human_finger("index", 0.6, 0.9, 0.5),
-                human_finger("middle", 0.6, 0.9, 0.5),
-                human_finger("ring", 0.6, 0.9, 0.5),
-                human_finger("little", 0.6, 0.9, 0.5),
+                human_finger("index", 0.8, 0.7, 0.4),
+                human_finger("middle", 0.8, 0.7, 0.4),
+                human_finger("ring", 0.8, 0.7, 0.4),
+                human_finger("little", 1.3, 1.4, 0.9),
                 vec![
-                    ("thumb_cmc_abd", 0.8),
-                    ("thumb_cmc_flex", 0.5),
+                    ("thumb_cmc_abd", 0.6),
+                    ("thumb_cmc_flex", 0.3),
                     ("thumb_mcp_flex", 0.2),
                     ("thumb_ip_flex", 0.2),
                 ],
             ]
             .concat(),
             targets: vec![
-                human_palm(0.0, 0.045, [-0.06, 0.0, 0.01]),
-                human_pad("index_tip", [0.02, -0.05, 0.03]),
-                human_pad("middle_tip", [0.025, -0.05, 0.008]),
-                human_pad("ring_tip", [0.025, -0.05, -0.012]),
-                human_pad("thumb_tip", [-0.01, 0.05, 0.035]),
+                human_pad("thumb_tip", [0.0, -0.05, 0.032]),
+                human_pad("index_tip", [-0.015, 0.05, 0.034]),
+                human_pad("middle_tip", [0.01, 0.05, 0.03]),
+                human_pad("ring_tip", [0.03, 0.04, 0.026]),
             ],
             open: [
-                human_open(&all, 0.6),
-                vec![("thumb_cmc_flex", -0.4), ("thumb_cmc_abd", -0.2)],
+                human_open(&all, 0.5),
+                vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
             ]
             .concat(),
-            approach: [-1.0, 0.0, 0.4],
+            approach: [0.0, -0.5, 1.0],
+            slide: [0.0, 0.0, 1.0],
         },
         ObjectKind::Teapot => GraspTemplate {
             palm_normal: [1.0, 0.0, 0.0],
@@ -199,6 +205,7 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             ]
             .concat(),
             approach: [-1.0, 0.0, 0.5],
+            slide: [0.0, 0.0, 1.0],
         },
         _ => return None,
     };
@@ -260,6 +267,8 @@ fn allegro(object: ObjectKind) -> Option<GraspTemplate> {
         targets,
         open,
         approach,
+        // Fingertips on a round object: no free direction; the drift is kept small.
+        slide: [0.0, 0.0, 1.0],
     })
 }
 
@@ -296,6 +305,7 @@ fn gripper(object: ObjectKind) -> Option<GraspTemplate> {
         targets,
         open: vec![("finger_joint1", 0.012)],
         approach: [0.0, 0.0, 1.0],
+        slide: [0.0, 0.0, 1.0],
     })
 }
 

@@ -7,3 +7,5 @@ mod support;
 mod fixtures;
 mod physics;
 mod model;
+mod synth;
+mod html;

@@ -5,7 +5,8 @@
 //! finger links that face the palm side, and each object point is `O⁻¹·FK(point)` at the
 //! first in-contact frame. The object (the 6 cm cube of `synth::objects`, written as OBJ
 //! into a temp dir) rests, is lifted, carried with a turn and placed; during contact the
-//! hand is rigidly attached to it. Before contact the hand approaches with opening fingers,
+//! hand is rigidly attached to it, or (with `in_hand_slide` / `in_hand_turn_rad`) slides
+//! over it, the object points being recomputed every frame so D_C stays 0. Before contact the hand approaches with opening fingers,
 //! after contact it retreats; those frames have no correspondences.
 //!
 //! Also: loading the human hand, building an object warp from waypoints (`warp`), and a
@@ -53,6 +54,12 @@ pub struct GraspOptions {
     pub lift_m: f64,
     /// Yaw of the object over the carry [rad].
     pub turn_rad: f64,
+    /// In-hand motion over the contact segment: the hand slides by this much relative to the
+    /// object (object frame) [m] ...
+    pub in_hand_slide: Vector3<f64>,
+    /// ... and turns about the object's z axis by this much [rad]; the object points are
+    /// recomputed every frame (sliding contacts), so D_C stays exactly 0. Default: none.
+    pub in_hand_turn_rad: f64,
 }
 
 impl Default for GraspOptions {
@@ -66,6 +73,8 @@ impl Default for GraspOptions {
             carry: Vector3::new(0.3, 0.1, 0.0),
             lift_m: 0.15,
             turn_rad: 0.5,
+            in_hand_slide: Vector3::zeros(),
+            in_hand_turn_rad: 0.0,
         }
     }
 }
@@ -156,17 +165,28 @@ impl GraspDemo {
             .collect();
         // Object origin at the centroid of the grasped points, axes of the hand: X = W⁻¹·O.
         let centroid = in_hand.iter().map(|p| p.coords).sum::<Vector3<f64>>() / count as f64;
-        let hand_to_object =
+        let object_in_hand =
             Isometry3::from_parts(Translation3::from(centroid), UnitQuaternion::identity());
-        let contacts: Vec<Contact> = picked
-            .iter()
-            .zip(&in_hand)
-            .map(|((l, p), ph)| Contact {
-                link: l.clone(),
-                hand_point: *p,
-                object_point: hand_to_object.inverse() * ph,
-            })
-            .collect();
+        let contacts = |object_from_hand: &Isometry3<f64>| -> Vec<Contact> {
+            picked
+                .iter()
+                .zip(&in_hand)
+                .map(|((l, p), ph)| Contact {
+                    link: l.clone(),
+                    hand_point: *p,
+                    object_point: object_from_hand * ph,
+                })
+                .collect()
+        };
+        // The hand in the object frame at contact frame k (in-hand motion, if any).
+        let object_from_hand = |k: usize| -> Isometry3<f64> {
+            let s = k as f64 / (opts.contact - 1).max(1) as f64;
+            let motion = Isometry3::from_parts(
+                Translation3::from(opts.in_hand_slide * s),
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), opts.in_hand_turn_rad * s),
+            );
+            motion * object_in_hand.inverse()
+        };
 
         let object_at = |i: usize| -> Isometry3<f64> {
             let k = i.saturating_sub(opts.pre).min(opts.contact - 1);
@@ -182,7 +202,9 @@ impl GraspDemo {
         let frames = (0..n)
             .map(|i| {
                 let object = object_at(i);
-                let attached = object * hand_to_object.inverse();
+                let k = i.saturating_sub(opts.pre).min(opts.contact - 1);
+                let held = object_from_hand(k);
+                let attached = object * held;
                 let (wrist, joints, contacts) = if i < opts.pre {
                     // Approach along the palm normal (−x of the hand) while closing.
                     let s = ease(i as f64 / opts.pre as f64);
@@ -190,7 +212,7 @@ impl GraspDemo {
                     let q = blend(&open_q, &grasp_q, s);
                     (Translation3::from(back) * attached, q, Vec::new())
                 } else if i < opts.pre + opts.contact {
-                    (attached, grasp_q.clone(), contacts.clone())
+                    (attached, grasp_q.clone(), contacts(&held))
                 } else {
                     let s = ease((i + 1 - opts.pre - opts.contact) as f64 / opts.post as f64);
                     let back = attached.rotation * Vector3::new(-0.1 * s, 0.0, 0.05 * s);
@@ -253,10 +275,14 @@ impl GraspDemo {
     /// A warp through `waypoints` (JSON, as in a config: `position`, `t`, `t_new`, optional
     /// `rotation`), no barriers.
     pub fn warp(&self, waypoints: serde_json::Value, mode: RetimeMode) -> ObjectWarp {
-        let cfg = config(waypoints);
+        self.warp_with(&config(waypoints), mode)
+    }
+
+    /// The object warp a config asks for (its waypoints, start, end; no barriers).
+    pub fn warp_with(&self, cfg: &WarpConfig, mode: RetimeMode) -> ObjectWarp {
         let input = self.object_path();
         let segment = self.demo.contact_segment().expect("contact segment");
-        let plan = WarpPlan::new(&cfg, &input.positions, segment).expect("plan");
+        let plan = WarpPlan::new(cfg, &input.positions, segment).expect("plan");
         warp_object(&input, &plan, &[], 0.05, &retime_params(mode), &cfg.source)
             .expect("object warp")
     }
@@ -272,9 +298,14 @@ pub fn retime_params(mode: RetimeMode) -> ObjectParams {
 
 /// A validated config with these waypoints and no barriers.
 pub fn config(waypoints: serde_json::Value) -> WarpConfig {
+    config_with(waypoints, serde_json::json!({}))
+}
+
+/// A validated config with these waypoints, `params` (JSON object) and no barriers.
+pub fn config_with(waypoints: serde_json::Value, params: serde_json::Value) -> WarpConfig {
     let json = serde_json::json!({
         "format": "dexwarp.config/1", "name": "test", "demo": "d.demo.json",
-        "scene": "s.json", "waypoints": waypoints, "barriers": []
+        "scene": "s.json", "waypoints": waypoints, "barriers": [], "params": params
     });
     let file: ConfigFile = serde_json::from_value(json).expect("test config parses");
     WarpConfig::from_file(file, Path::new("test.config.json")).expect("valid config")

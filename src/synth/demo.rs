@@ -1,0 +1,511 @@
+//! Demonstration synthesis: a grasp, a scripted motion and geometric correspondences.
+//!
+//! [`synthesize`] builds the frames of one demonstration in three segments:
+//! 1. **pre-contact**: the object rests on its support (its lowest point on the support
+//!    top). The hand waits at a retreat pose with the fingers open ([`Timing::idle`]),
+//!    reaches a pre-grasp 5 cm short of the grasp along the approach direction
+//!    ([`Timing::reach`]), then moves in while the fingers close onto the grasp
+//!    ([`Timing::close`]); all with minimum-jerk timing;
+//! 2. **in-contact**: the grasp is held ([`Timing::hold`]), the object follows the scripted
+//!    motion ([`super::motion`], [`Timing::motion`]) and is held again on its new support;
+//!    the hand is rigidly attached to the object. Correspondences of every frame are
+//!    extracted geometrically at the grasp ([`super::contacts`]), with seeded noise;
+//! 3. **post-contact**: release (fingers open, the hand backs off 1 cm) and retreat to the
+//!    retreat pose of the final object pose, then rest.
+//!
+//! The grasp comes from contact IK ([`super::grasp`]); every frame is checked for
+//! hand-object penetration ([`super::proximity`]) and refused above
+//! [`SynthSpec::max_penetration_mm`]. Numbers are rounded to micrometres (positions, contact
+//! points), 1e-7 (quaternions) and microradians (joints), so a file is compact and the same
+//! spec always gives the same bytes.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+
+use super::contacts::{self, ContactParams, Noise};
+use super::grasp::{self, Grasp, GraspParams, GraspTemplate, HandFamily};
+use super::motion::{self, Motion, MotionParams, min_jerk};
+use super::objects::ObjectKind;
+use super::proximity::{ObjectGeometry, penetration};
+use super::templates;
+use crate::geometry::Mesh;
+use crate::model::demo::ObjectInfo;
+use crate::model::{Contact, Demo, Frame};
+use crate::robot::{CollisionShape, Robot, ShapeKind};
+use crate::{Error, Result};
+
+/// Frames of each phase.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Timing {
+    /// Hand still at the retreat pose.
+    pub idle: usize,
+    /// Retreat pose → pre-grasp.
+    pub reach: usize,
+    /// Pre-grasp → grasp, fingers closing.
+    pub close: usize,
+    /// Grasp held before and after the motion (each).
+    pub hold: usize,
+    /// The scripted motion.
+    pub motion: usize,
+    /// Fingers opening.
+    pub release: usize,
+    /// Back to the retreat pose.
+    pub retreat: usize,
+    /// Hand still at the end.
+    pub rest: usize,
+}
+
+impl Timing {
+    /// Total number of frames.
+    pub fn frames(&self) -> usize {
+        self.idle
+            + self.reach
+            + self.close
+            + 2 * self.hold
+            + self.motion
+            + self.release
+            + self.retreat
+            + self.rest
+    }
+
+    /// Frames with correspondences (the in-contact segment).
+    pub fn contact_frames(&self) -> usize {
+        2 * self.hold + self.motion
+    }
+}
+
+impl Default for Timing {
+    fn default() -> Self {
+        Timing {
+            idle: 45,
+            reach: 60,
+            close: 30,
+            hold: 15,
+            motion: 240,
+            release: 15,
+            retreat: 60,
+            rest: 30,
+        }
+    }
+}
+
+/// Everything that defines a synthetic demonstration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthSpec {
+    /// Demonstration name.
+    pub name: String,
+    pub object: ObjectKind,
+    pub motion: Motion,
+    /// Frame rate [Hz]. Default 30.
+    pub fps: f64,
+    /// Where the object rests at the start: `(x, y)` of its origin [m].
+    pub start_xy: [f64; 2],
+    /// Height of the support top [m].
+    pub support_z: f64,
+    /// Yaw of the object at rest [rad] (about world `z`).
+    pub yaw_rad: f64,
+    pub motion_params: MotionParams,
+    pub timing: Timing,
+    pub contacts: ContactParams,
+    pub grasp: GraspParams,
+    /// Distance of the retreat pose from the grasp along the approach direction [m].
+    pub retreat_m: f64,
+    /// Largest hand-object penetration accepted at any frame [mm]. Default 2.
+    pub max_penetration_mm: f64,
+}
+
+impl SynthSpec {
+    /// A spec with defaults: the object on a 0.9 m table at the origin, carried 0.4 m along
+    /// `−x` (a pour tilts 60° about `y` halfway), 30 fps, 510 frames.
+    pub fn new(name: &str, object: ObjectKind, motion: Motion) -> SynthSpec {
+        let mut motion_params = MotionParams::default();
+        match motion {
+            Motion::Pour => {
+                motion_params.tilt_rad = 1.0;
+                motion_params.tilt_axis = Vector3::y();
+            }
+            Motion::Pass => {
+                motion_params.lift_m = 0.2;
+                motion_params.arc_m = 0.08;
+            }
+            Motion::LiftPlace => {}
+        }
+        SynthSpec {
+            name: name.to_string(),
+            object,
+            motion,
+            fps: 30.0,
+            start_xy: [0.0, 0.0],
+            support_z: 0.9,
+            yaw_rad: 0.0,
+            motion_params,
+            timing: Timing::default(),
+            contacts: ContactParams::default(),
+            grasp: GraspParams::default(),
+            retreat_m: 0.18,
+            max_penetration_mm: 2.0,
+        }
+    }
+}
+
+/// What synthesis measured on its output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthStats {
+    pub grasp: Grasp,
+    /// Correspondences per in-contact frame.
+    pub contacts_per_frame: usize,
+    /// Mean correspondence distance over the in-contact frames (`D_C`) [mm].
+    pub d_c_mm: f64,
+    /// Largest hand-object penetration over all frames [mm].
+    pub max_penetration_mm: f64,
+    /// The in-contact segment `[c0, c1]`.
+    pub contact_segment: (usize, usize),
+}
+
+/// A synthetic demonstration and its stats.
+#[derive(Clone, Debug)]
+pub struct Synthesis {
+    pub demo: Demo,
+    pub stats: SynthStats,
+}
+
+/// The object as a collision shape in its own frame (for the IK penetration term).
+fn object_shape(mesh: &Mesh, path: &Path) -> Option<CollisionShape> {
+    CollisionShape::new(
+        ShapeKind::Mesh {
+            path: path.to_path_buf(),
+            scale: Vector3::repeat(1.0),
+            mesh: std::sync::Arc::new(mesh.clone()),
+        },
+        Isometry3::identity(),
+    )
+}
+
+/// Builds the demonstration `spec` asks for with `robot` (loaded from `robot_path`); the
+/// object mesh is the one of `spec.object`, referenced as `mesh_path` in the output (the
+/// file must exist when the demonstration is loaded again).
+pub fn synthesize(
+    spec: &SynthSpec,
+    robot: &Robot,
+    robot_path: &Path,
+    mesh_path: &Path,
+) -> Result<Synthesis> {
+    let object = spec.object;
+    let fail = |field: &str, msg: String| Error::invalid(robot_path, field, msg);
+    let family = HandFamily::detect(robot).ok_or_else(|| {
+        fail(
+            "(robot)",
+            format!(
+                "robot {:?} is not a hand synthesis knows: expected the <finger>_tip links of a five- or four-finger hand (thumb_tip, index_tip, middle_tip, ring_tip) or the jaws left_finger and right_finger of a gripper",
+                robot.name
+            ),
+        )
+    })?;
+    let template = templates::template(family, object).ok_or_else(|| {
+        let names: Vec<&str> = templates::objects_for(family)
+            .into_iter()
+            .map(ObjectKind::name)
+            .collect();
+        fail(
+            "(grasp)",
+            format!(
+                "no grasp of object '{object}' for robot {:?} (a {}); objects with a grasp for this hand: {}",
+                robot.name,
+                family.name(),
+                names.join(", ")
+            ),
+        )
+    })?;
+    let mesh = object.mesh();
+    let geo = ObjectGeometry::new(mesh.clone())
+        .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
+    let shape = object_shape(&mesh, mesh_path)
+        .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
+
+    // Rest pose on the support, and the support as a barrier of the grasp IK.
+    let yaw = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), spec.yaw_rad);
+    let start = Isometry3::from_parts(
+        Translation3::new(
+            spec.start_xy[0],
+            spec.start_xy[1],
+            spec.support_z - geo.min_z,
+        ),
+        yaw,
+    );
+    let table = CollisionShape::new(
+        ShapeKind::Box {
+            size: Vector3::new(2.0, 2.0, 0.2),
+        },
+        Isometry3::translation(spec.start_xy[0], spec.start_xy[1], spec.support_z - 0.1),
+    )
+    .expect("a box is a valid shape");
+
+    let g = grasp::solve(
+        robot,
+        &template,
+        &geo,
+        &shape,
+        &start,
+        std::slice::from_ref(&table),
+        &spec.grasp,
+    )
+    .map_err(|e| {
+        fail(
+            "(grasp)",
+            format!(
+                "cannot grasp object '{object}' with robot {:?}: {e}; try another object or hand (see `dexwarp robot` for the hand's links and limits)",
+                robot.name
+            ),
+        )
+    })?;
+
+    // Correspondences at the grasp, object frame.
+    let mut poses = robot.new_link_poses();
+    let wrist0 = start * g.wrist_in_object;
+    robot.forward_kinematics(&wrist0, &g.q, &mut poses);
+    let samples = contacts::hand_samples(robot, spec.contacts.spacing_mm * 1e-3);
+    let base_contacts = contacts::extract(
+        robot,
+        &samples,
+        &poses,
+        &geo,
+        &start,
+        spec.contacts.max_distance_mm * 1e-3,
+    );
+    if base_contacts.is_empty() {
+        return Err(fail(
+            "(grasp)",
+            format!("the grasp of '{object}' touches the object nowhere"),
+        ));
+    }
+
+    let frames = build_frames(spec, &start, &g, &template, &base_contacts);
+    let mut demo = Demo {
+        name: spec.name.clone(),
+        fps: spec.fps,
+        robot: robot_path.to_path_buf(),
+        object: ObjectInfo {
+            name: object.name().to_string(),
+            mesh: mesh_path.to_path_buf(),
+            mass: object.mass_kg(),
+        },
+        joint_names: robot.actuated_names(),
+        frames,
+        timewarp: None,
+        scene: None,
+        barriers: Vec::new(),
+        source: PathBuf::from(format!("{}.demo.json", spec.name)),
+    };
+    round_demo(&mut demo);
+
+    // Every frame: hand-object penetration (in-contact frames share one relative pose).
+    let mut worst: f64 = 0.0;
+    let c0 = spec.timing.idle + spec.timing.reach + spec.timing.close;
+    let c1 = c0 + spec.timing.contact_frames() - 1;
+    for (i, f) in demo.frames.iter().enumerate() {
+        if i > c0 && i <= c1 {
+            continue;
+        }
+        robot.forward_kinematics(&f.wrist, &f.joints, &mut poses);
+        let p = penetration(robot, &poses, &geo, &f.object);
+        if p.depth_m * 1e3 > spec.max_penetration_mm {
+            let link = p.link.map_or("?", |l| robot.link(l).name.as_str());
+            return Err(fail(
+                "(grasp)",
+                format!(
+                    "frame {i} of '{}': the hand overlaps the object by {:.1} mm at link {link:?} (limit {} mm); the approach or release of this grasp needs another direction",
+                    spec.name,
+                    p.depth_m * 1e3,
+                    spec.max_penetration_mm
+                ),
+            ));
+        }
+        worst = worst.max(p.depth_m);
+    }
+    let per_frame = crate::metrics::contact_distance_per_frame_mm(robot, &demo);
+    let d_c_mm = crate::metrics::d_c_mm(&per_frame);
+    Ok(Synthesis {
+        stats: SynthStats {
+            grasp: g,
+            contacts_per_frame: base_contacts.len(),
+            d_c_mm,
+            max_penetration_mm: worst * 1e3,
+            contact_segment: (c0, c1),
+        },
+        demo,
+    })
+}
+
+/// The frames of the three segments (see the module docs).
+fn build_frames(
+    spec: &SynthSpec,
+    start: &Isometry3<f64>,
+    g: &Grasp,
+    template: &GraspTemplate,
+    base_contacts: &[Contact],
+) -> Vec<Frame> {
+    let t = &spec.timing;
+    let approach = Vector3::from(template.approach)
+        .try_normalize(1e-12)
+        .unwrap_or_else(Vector3::z);
+    let end = motion::object_pose(spec.motion, &spec.motion_params, start, 1.0);
+    // Retreat pose of an object pose: the grasp moved back along the approach direction
+    // (object frame, turned by the object's yaw only so the hand stays upright) and turned
+    // 0.25 rad about the vertical, as a relaxed hand would be.
+    let offset_pose = |object: &Isometry3<f64>, dist: f64, turn: f64| -> Isometry3<f64> {
+        let grasp = object * g.wrist_in_object;
+        let dir = object.rotation * approach;
+        let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), turn);
+        Isometry3::from_parts(
+            Translation3::from(grasp.translation.vector + dir * dist),
+            rot * grasp.rotation,
+        )
+    };
+    let lerp_q = |a: &[f64], b: &[f64], s: f64| -> Vec<f64> {
+        a.iter().zip(b).map(|(x, y)| x + (y - x) * s).collect()
+    };
+    let blend = |a: &Isometry3<f64>, b: &Isometry3<f64>, s: f64| -> Isometry3<f64> {
+        Isometry3::from_parts(
+            Translation3::from(a.translation.vector.lerp(&b.translation.vector, s)),
+            a.rotation.slerp(&b.rotation, s),
+        )
+    };
+    let mut frames = Vec::with_capacity(t.frames());
+    let mut push = |object: Isometry3<f64>, wrist: Isometry3<f64>, q: Vec<f64>, c: Vec<Contact>| {
+        frames.push(Frame {
+            object,
+            wrist,
+            joints: q,
+            contacts: c,
+        });
+    };
+    let far = offset_pose(start, spec.retreat_m, 0.25);
+    let pre = offset_pose(start, 0.05, 0.0);
+    let grasp_w = start * g.wrist_in_object;
+    for _ in 0..t.idle {
+        push(*start, far, g.q_open.clone(), Vec::new());
+    }
+    for k in 1..=t.reach {
+        let s = min_jerk(k as f64 / t.reach as f64);
+        push(*start, blend(&far, &pre, s), g.q_open.clone(), Vec::new());
+    }
+    for k in 1..=t.close {
+        let s = min_jerk(k as f64 / t.close as f64);
+        let qs = lerp_q(
+            &g.q_open,
+            &g.q,
+            min_jerk((k as f64 / t.close as f64 - 0.3) / 0.7),
+        );
+        push(*start, blend(&pre, &grasp_w, s), qs, Vec::new());
+    }
+    let mut noise = Noise::new(
+        spec.contacts.seed,
+        spec.contacts.noise_mm * 1e-3,
+        spec.contacts.offset_mm * 1e-3,
+        Vector3::from(template.slide),
+    );
+    let fps = spec.fps;
+    let mut frame_index = t.idle + t.reach + t.close;
+    let mut contact_frame = |object: Isometry3<f64>| {
+        let mut c = base_contacts.to_vec();
+        noise.perturb(&mut c, frame_index, fps);
+        frame_index += 1;
+        (object, object * g.wrist_in_object, c)
+    };
+    let n = t.motion.max(2) - 1;
+    let object_at = |i: usize| -> Isometry3<f64> {
+        if i < t.hold {
+            *start
+        } else if i < t.hold + t.motion {
+            let tau = (i - t.hold) as f64 / n as f64;
+            motion::object_pose(spec.motion, &spec.motion_params, start, tau)
+        } else {
+            end
+        }
+    };
+    for i in 0..t.contact_frames() {
+        let (o, w, c) = contact_frame(object_at(i));
+        push(o, w, g.q.clone(), c);
+    }
+    let end_grasp = end * g.wrist_in_object;
+    let backed = offset_pose(&end, 0.01, 0.0);
+    for k in 1..=t.release {
+        let s = min_jerk(k as f64 / t.release as f64);
+        push(
+            end,
+            blend(&end_grasp, &backed, s),
+            lerp_q(&g.q, &g.q_open, s),
+            Vec::new(),
+        );
+    }
+    let far_end = offset_pose(&end, spec.retreat_m, -0.25);
+    for k in 1..=t.retreat {
+        let s = min_jerk(k as f64 / t.retreat as f64);
+        push(
+            end,
+            blend(&backed, &far_end, s),
+            g.q_open.clone(),
+            Vec::new(),
+        );
+    }
+    for _ in 0..t.rest {
+        push(end, far_end, g.q_open.clone(), Vec::new());
+    }
+    frames
+}
+
+/// Rounds to `1/scale`; `+ 0.0` turns `-0.0` into `0.0`.
+fn round(v: f64, scale: f64) -> f64 {
+    (v * scale).round() / scale + 0.0
+}
+
+fn round_pose(p: &Isometry3<f64>) -> Isometry3<f64> {
+    let t = p.translation.vector.map(|v| round(v, 1e6));
+    let q = p.rotation.quaternion();
+    let q = nalgebra::Quaternion::new(
+        round(q.w, 1e7),
+        round(q.i, 1e7),
+        round(q.j, 1e7),
+        round(q.k, 1e7),
+    );
+    Isometry3::from_parts(
+        Translation3::from(t),
+        UnitQuaternion::new_unchecked(q.normalize()),
+    )
+}
+
+/// Rounds every number of `demo` (see the module docs). Quaternions are renormalised after
+/// rounding and rounded again, so the stored and the reloaded value agree.
+pub fn round_demo(demo: &mut Demo) {
+    for f in &mut demo.frames {
+        f.object = round_pose(&f.object);
+        f.wrist = round_pose(&f.wrist);
+        for v in &mut f.joints {
+            *v = round(*v, 1e6);
+        }
+        for c in &mut f.contacts {
+            c.hand_point = Point3::from(c.hand_point.coords.map(|v| round(v, 1e6)));
+            c.object_point = Point3::from(c.object_point.coords.map(|v| round(v, 1e6)));
+        }
+    }
+}
+
+/// The compact JSON text (one line) of `demo` as a file at `path` (paths relative to it).
+pub fn compact_bytes(demo: &Demo, path: &Path) -> Result<Vec<u8>> {
+    let file = demo.to_file(path);
+    let mut text = serde_json::to_vec(&file).map_err(|e| Error::Parse {
+        path: path.to_path_buf(),
+        field: "(output)".into(),
+        message: e.to_string(),
+    })?;
+    text.push(b'\n');
+    Ok(text)
+}
+
+/// Writes `demo` to `path` as compact JSON (one line; a pretty-printed demonstration with
+/// 50 correspondences per frame is several times larger), atomically, with paths relative
+/// to the file.
+pub fn save_compact(demo: &Demo, path: &Path) -> Result<()> {
+    crate::model::json::write_atomic(path, &compact_bytes(demo, path)?)
+}

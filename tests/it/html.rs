@@ -1,0 +1,107 @@
+//! `reproduce` on a one-config scene folder: the tables and `index.html` are written, and the
+//! page renders in a real headless browser with its tables and plots.
+
+use std::path::Path;
+use std::process::Command;
+
+use dexwarp::reproduce::{ReproduceOptions, run};
+
+use crate::fixtures::gripper_fixture;
+
+/// Headless Chromium's rendered DOM of `page`.
+fn rendered_dom(page: &Path, profile: &Path) -> Option<String> {
+    let out = Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg("--dump-dom")
+        .arg(format!("file://{}", page.display()))
+        .output()
+        .ok()?;
+    out.status
+        .success()
+        .then(|| String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+#[test]
+fn reproduce_writes_tables_and_a_page_that_renders() {
+    let root = tempfile::tempdir().unwrap();
+    let configs = root.path().join("scenes/configs");
+    std::fs::create_dir_all(&configs).unwrap();
+    let config = gripper_fixture(root.path());
+    std::fs::rename(&config, configs.join("box_lift.json")).unwrap();
+    // Paths in the config are relative to it: point them back at the fixture files.
+    let text = std::fs::read_to_string(configs.join("box_lift.json"))
+        .unwrap()
+        .replace("\"box.demo.json\"", "\"../../box.demo.json\"")
+        .replace("\"scene.json\"", "\"../../scene.json\"");
+    std::fs::write(configs.join("box_lift.json"), text).unwrap();
+    let out = root.path().join("report");
+    let rep = run(&ReproduceOptions {
+        out: out.clone(),
+        root: root.path().to_path_buf(),
+        quick: true,
+        jobs: 2,
+        limits: dexwarp::Limits::default(),
+        progress: false,
+    })
+    .unwrap();
+    // Three LM thresholds, Adam and the baseline for the one config.
+    assert_eq!(
+        rep.runs.len(),
+        5,
+        "{:?}",
+        rep.runs.iter().map(|r| &r.variant.name).collect::<Vec<_>>()
+    );
+    for r in &rep.runs {
+        assert!(
+            r.report.error.is_none(),
+            "{}: {:?}",
+            r.variant.name,
+            r.report.error
+        );
+        assert!(r.dir.join("report.json").is_file() && r.dir.join("frames.csv").is_file());
+    }
+    for t in [
+        "table1_dwo",
+        "table3_dc",
+        "table4_runtime",
+        "table5_plr_timewarp",
+        "baseline_comparison",
+        "physics_verdicts",
+    ] {
+        let md = std::fs::read_to_string(out.join(format!("tables/{t}.md"))).unwrap();
+        assert!(md.contains("box_lift"), "{t}: {md}");
+        assert!(out.join(format!("tables/{t}.csv")).is_file());
+    }
+    let page = out.join("index.html");
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        !html.contains("http://") && !html.contains("https://")
+            || html.contains("http://www.w3.org"),
+        "the page must not load anything from the network"
+    );
+    // Render it in a real browser (CI installs Debian's chromium; see .ci/run).
+    let profile = tempfile::tempdir().unwrap();
+    let dom = rendered_dom(&page, profile.path()).expect(
+        "headless chromium must be installed to check the report (apt-get install chromium)",
+    );
+    let tables = dom.matches("<table").count();
+    let svgs = dom.matches("<svg").count();
+    assert!(
+        tables >= 7,
+        "rendered page has {tables} tables, expected the 7 report tables"
+    );
+    assert!(
+        svgs >= 3,
+        "rendered page has {svgs} SVG plots, expected at least 3"
+    );
+    assert!(dom.contains("Table 1: D_WO"), "rendered page lacks Table 1");
+}
