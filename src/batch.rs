@@ -299,6 +299,8 @@ fn run_item(item: &Item, out: &Path, options: &BatchOptions) -> Outcome {
                 threshold_mm: item.threshold_mm,
                 hand: item.hand,
                 solver: item.solver,
+                penetration_weight: None,
+                warm_start: None,
                 physics: Some(crate::physics::Params::default()),
                 limits: options.limits,
             },

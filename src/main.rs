@@ -148,6 +148,12 @@ enum Command {
         /// Skip the physics replay (the report's physics is null).
         #[arg(long)]
         no_physics: bool,
+        /// Weight of the IK's hand-object penetration term (overrides the config; 0 = off).
+        #[arg(long, value_name = "W")]
+        penetration_weight: Option<f64>,
+        /// IK warm start (overrides the config): previous (the paper) or follow-object.
+        #[arg(long, value_enum, value_name = "HOW")]
+        warm_start: Option<WarmStartArg>,
     },
     /// Replay any demonstration, warped or original, in physics; write DIR/report.json and
     /// DIR/frames.csv.
@@ -234,6 +240,14 @@ impl From<HandArg> for HandMethod {
             HandArg::Baseline => HandMethod::Baseline,
         }
     }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum WarmStartArg {
+    /// The previous frame's solution (the paper).
+    Previous,
+    /// The previous frame's solution carried along by the object's motion.
+    FollowObject,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -376,6 +390,8 @@ fn run(cli: Cli) -> Result<()> {
             hand,
             solver,
             no_physics,
+            penetration_weight,
+            warm_start,
         } => {
             let inputs = Inputs::load(&config, demo.as_deref(), &limits)?;
             let options = Options {
@@ -383,6 +399,11 @@ fn run(cli: Cli) -> Result<()> {
                 threshold_mm,
                 hand: hand.into(),
                 solver: solver.into(),
+                penetration_weight,
+                warm_start: warm_start.map(|w| match w {
+                    WarmStartArg::Previous => dexwarp::hand::ik::WarmStart::Previous,
+                    WarmStartArg::FollowObject => dexwarp::hand::ik::WarmStart::FollowObject,
+                }),
                 physics: (!no_physics).then(dexwarp::physics::Params::default),
                 limits,
             };

@@ -64,6 +64,10 @@ pub struct Options {
     pub hand: HandMethod,
     /// IK solver (contact IK only).
     pub solver: Solver,
+    /// IK penetration weight overriding the config's.
+    pub penetration_weight: Option<f64>,
+    /// IK warm start overriding the config's.
+    pub warm_start: Option<ik::WarmStart>,
     /// Physics replay parameters; `None` skips the replay (the report's `physics` is null).
     pub physics: Option<physics::Params>,
     pub limits: Limits,
@@ -159,9 +163,24 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
                 threshold_mm: threshold,
                 margin_m: config.params.margin_m,
                 steepness: config.params.steepness,
+                penetration_weight: options
+                    .penetration_weight
+                    .unwrap_or(config.params.penetration_weight),
+                warm_start: options.warm_start.unwrap_or(config.params.warm_start),
                 ..ik::Params::default()
             };
-            let (raw, stats) = ik::run(robot, demo, &object, &base, &shapes, None, &params);
+            let object_shape = (params.penetration_weight > 0.0)
+                .then(|| object_collision_shape(&demo.object.mesh, mesh))
+                .flatten();
+            let (raw, stats) = ik::run(
+                robot,
+                demo,
+                &object,
+                &base,
+                &shapes,
+                object_shape.as_ref(),
+                &params,
+            );
             timing.insert("ik".into(), stats.time_s);
 
             // Stage 5: smoothing inside the contact segment.
@@ -257,6 +276,18 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         hand,
         frames,
     })
+}
+
+/// The object mesh as a collision shape in the object frame (the IK penetration term).
+fn object_collision_shape(path: &Path, mesh: &Mesh) -> Option<CollisionShape> {
+    CollisionShape::new(
+        crate::robot::ShapeKind::Mesh {
+            path: path.to_path_buf(),
+            scale: nalgebra::Vector3::repeat(1.0),
+            mesh: std::sync::Arc::new(mesh.clone()),
+        },
+        nalgebra::Isometry3::identity(),
+    )
 }
 
 /// The barriers a config names, as world-frame collision shapes (the IK barrier term).

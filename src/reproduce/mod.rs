@@ -1,5 +1,8 @@
 //! `dexwarp reproduce`: the paper's experiments on the built-in scenes.
 //!
+//! 0. The base demonstrations are synthesized again into `OUT/demos` and compared with the
+//!    committed `scenes/demos/` (same frames, same correspondences), so the inputs of every
+//!    table are shown to be reproducible from code.
 //! 1. Every config in `scenes/configs/` is warped with contact IK (LM) at the paper's three
 //!    thresholds (10, 5, 3.5 mm), with the paper's Adam at 3.5 mm (for the speed ratio), and
 //!    with the SE(3) baseline hand.
@@ -88,10 +91,62 @@ pub struct RunRecord {
 /// Everything a reproduction produced.
 #[derive(Clone, Debug)]
 pub struct Reproduction {
+    /// Per base demonstration: its name and whether the rebuilt one matches the committed one.
+    pub demos: Vec<(String, DemoCheck)>,
     pub runs: Vec<RunRecord>,
     /// Wall time [s].
     pub seconds: f64,
     pub out: PathBuf,
+}
+
+/// How a rebuilt base demonstration compares with the committed one.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DemoCheck {
+    /// Same frames and correspondences.
+    Identical,
+    /// Differs; says where.
+    Differs(String),
+    /// Could not be built or read.
+    Failed(String),
+}
+
+/// Step 0: rebuilds the base demonstrations into `out/demos` and compares them with
+/// `root/scenes/demos` (everything but the file paths inside, which depend on the folder).
+pub fn rebuild_demos(root: &Path, out: &Path, limits: &Limits) -> Vec<(String, DemoCheck)> {
+    let dir = out.join("demos");
+    crate::synth::defaults::base_demos()
+        .iter()
+        .map(|base| {
+            let name = base.spec.name.clone();
+            let check = (|| -> std::result::Result<DemoCheck, String> {
+                crate::synth::defaults::write_base_demo(base, root, &dir, limits)
+                    .map_err(|e| e.to_string())?;
+                let file = format!("{name}.demo.json");
+                let strip = |p: &Path| -> std::result::Result<serde_json::Value, String> {
+                    let bytes = std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()))?;
+                    let mut v: serde_json::Value =
+                        serde_json::from_slice(&bytes).map_err(|e| e.to_string())?;
+                    for k in ["robot", "scene"] {
+                        v.as_object_mut().map(|o| o.remove(k));
+                    }
+                    if let Some(o) = v.get_mut("object").and_then(|o| o.as_object_mut()) {
+                        o.remove("mesh");
+                    }
+                    Ok(v)
+                };
+                let (a, b) = (
+                    strip(&dir.join(&file))?,
+                    strip(&root.join("scenes/demos").join(&file))?,
+                );
+                Ok(if a == b {
+                    DemoCheck::Identical
+                } else {
+                    DemoCheck::Differs(format!("{file} rebuilt differs from scenes/demos/{file}"))
+                })
+            })();
+            (name, check.unwrap_or_else(DemoCheck::Failed))
+        })
+        .collect()
 }
 
 /// The configs in `root/scenes/configs`, sorted by name.
@@ -119,6 +174,11 @@ fn stem(p: &Path) -> String {
 pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
     let clock = Instant::now();
     let configs = config_paths(&options.root)?;
+    let demos = if options.root.join("scenes/demos").is_dir() {
+        rebuild_demos(&options.root, &options.out, &options.limits)
+    } else {
+        Vec::new()
+    };
     let mut jobs: Vec<(PathBuf, Variant)> = Vec::new();
     for (k, c) in configs.iter().enumerate() {
         for t in THRESHOLDS_MM {
@@ -194,6 +254,7 @@ pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
     };
     bar.finish_and_clear();
     let rep = Reproduction {
+        demos,
         runs,
         seconds: clock.elapsed().as_secs_f64(),
         out: options.out.clone(),
@@ -229,6 +290,8 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
                 threshold_mm: Some(variant.threshold_mm),
                 hand: variant.hand,
                 solver: variant.solver,
+                penetration_weight: None,
+                warm_start: None,
                 physics: Some(crate::physics::Params::default()),
                 limits: options.limits,
             },

@@ -391,8 +391,30 @@ pub fn provenance(rep: &Reproduction) -> String {
         })
         .map(|kb| format!("{:.0} GiB", kb / 1024.0 / 1024.0))
         .unwrap_or_else(|| "unknown memory".into());
+    let demos = if rep.demos.is_empty() {
+        String::new()
+    } else {
+        let same = rep
+            .demos
+            .iter()
+            .filter(|(_, c)| *c == super::DemoCheck::Identical)
+            .count();
+        let mut s = format!(
+            "; base demonstrations rebuilt: {same} of {} identical to scenes/demos",
+            rep.demos.len()
+        );
+        for (name, c) in &rep.demos {
+            match c {
+                super::DemoCheck::Identical => {}
+                super::DemoCheck::Differs(why) | super::DemoCheck::Failed(why) => {
+                    s.push_str(&format!(" ({name}: {why})"));
+                }
+            }
+        }
+        s
+    };
     format!(
-        "git revision {git}; {cores} cores ({cpu}), {mem}; {} runs in {:.1} s wall time",
+        "git revision {git}; {cores} cores ({cpu}), {mem}; {} runs in {:.1} s wall time{demos}",
         rep.runs.len(),
         rep.seconds
     )

@@ -2,10 +2,11 @@
 //!
 //! A [`GraspTemplate`] (see [`super::templates`]) names, for one hand family and one
 //! object, where the pads go: each [`PadTarget`] is a finger's pad (its `<finger>_tip` frame,
-//! the pad surface at `+x·radius`) or a palm point, and an object point given roughly (object
+//! the pad surface at `+x·radius`), a phalanx (a point of its palm-side surface) or a palm
+//! point, and an object point given roughly (object
 //! frame); the object point is projected onto the mesh surface. A pad contributes two
 //! correspondences: pad surface point ↔ surface point `s`, and pad centre (the tip frame
-//! origin) ↔ `s + n·radius` (`n` the outward surface normal), which also aligns the pad
+//! origin; for a phalanx the capsule axis point below the surface point) ↔ `s + n·radius` (`n` the outward surface normal), which also aligns the pad
 //! normal with `−n`. The solve:
 //! 1. initial guess: the hand in its preshape, oriented by the template's palm normal and
 //!    finger direction (object frame), placed so that the centroid of its target points
@@ -22,7 +23,7 @@ use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaterni
 
 use super::proximity::{ObjectGeometry, link_depth, penetration};
 use crate::hand::ik::{IkSolver, Params as IkParams, ResolvedContact};
-use crate::robot::{CollisionShape, LinkId, Robot};
+use crate::robot::{CollisionShape, Robot};
 
 /// The hand families synthesis knows, recognised by their links.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -73,8 +74,10 @@ pub struct PadTarget {
     pub link: &'static str,
     /// Hand point, link frame [m]: the pad surface point for a finger pad.
     pub hand_point: [f64; 3],
-    /// Pad radius [m]: when positive, the link origin is the pad centre and is targeted at
-    /// `radius` above the surface along the normal (see the module docs).
+    /// Pad radius [m]: when positive, the point `radius` behind the hand point along the
+    /// link's `−x` (the pad centre: the link origin for a `<finger>_tip` pad, a point of the
+    /// capsule axis for a phalanx) is targeted at `radius` above the surface along the
+    /// normal (see the module docs).
     pub radius: f64,
     /// Rough object point, object frame [m]; projected onto the surface.
     pub object_point: [f64; 3],
@@ -186,7 +189,7 @@ pub fn resolve_targets(
             let n = object.normal(&s);
             out.push(ResolvedContact {
                 link,
-                hand_point: Point3::origin(),
+                hand_point: Point3::new(t.hand_point[0] - t.radius, t.hand_point[1], t.hand_point[2]),
                 object_point: s + n * t.radius,
             });
         }
@@ -398,20 +401,6 @@ const TURNS: [(f64, f64); 7] = [
     (0.0, 0.4),
     (0.0, -0.4),
 ];
-
-/// The link ids of a robot's `<finger>_tip` frames that exist, for reports.
-pub fn tip_links(robot: &Robot) -> Vec<LinkId> {
-    [
-        "thumb_tip",
-        "index_tip",
-        "middle_tip",
-        "ring_tip",
-        "little_tip",
-    ]
-    .iter()
-    .filter_map(|n| robot.link_id(n))
-    .collect()
-}
 
 #[cfg(test)]
 mod tests {

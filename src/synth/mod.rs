@@ -5,7 +5,9 @@
 //! - [`motion`]: the scripted in-contact motions (`lift_place`, `pour`, `pass`);
 //! - [`proximity`]: object signed distance, hand-object penetration;
 //! - [`grasp`], [`templates`]: grasp synthesis by contact IK toward chosen pad targets;
-//! - [`contacts`]: correspondence extraction and motion-capture noise.
+//! - [`contacts`]: correspondence extraction and motion-capture noise;
+//! - [`demo`]: [`demo::synthesize`], the three segments of a demonstration;
+//! - [`defaults`]: the six base demonstrations and [`defaults::run`] (`dexwarp synth`).
 
 pub mod contacts;
 pub mod defaults;

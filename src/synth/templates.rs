@@ -10,7 +10,7 @@
 //! | five-finger | cube | from above: thumb on the near face, index and middle on the far face |
 //! | five-finger | frying pan | power grasp of the handle: palm on top, fingers wrapped under, thumb along the top toward the pan |
 //! | five-finger | mug | body from above: thumb on the near side, index, middle and ring on the far side, clear of the handle |
-//! | five-finger | teapot | handle pinch: thumb on one side of the handle's outer bar, index and middle on the other |
+//! | five-finger | teapot | hook grasp of the handle: proximal phalanges across the outer bar, middle phalanges and pads flat on one side, thumb pad on the other |
 //! | four-finger | apple | fingertip grasp from above: three fingers on the far side, thumb on the near side |
 //! | four-finger | cube | as the five-finger cube grasp |
 //! | gripper | small box, cube | jaws on two opposite faces, from above |
@@ -46,6 +46,17 @@ fn allegro_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
         link: tip,
         hand_point: [ALLEGRO_PAD, 0.0, 0.0],
         radius: ALLEGRO_PAD,
+        object_point,
+    }
+}
+
+/// A point of a phalanx of the human hand: on the palm-side surface of its capsule
+/// (radius `r`) at `z` along the link.
+fn human_phalanx(link: &'static str, r: f64, z: f64, object_point: [f64; 3]) -> PadTarget {
+    PadTarget {
+        link,
+        hand_point: [r, 0.0, z],
+        radius: r,
         object_point,
     }
 }
@@ -178,14 +189,18 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             approach: [0.0, -0.5, 1.0],
             slide: [0.0, 0.0, 1.0],
         },
+        // Hook grasp of the handle (`x` from -119 mm at the outer bar to -75 mm at the body,
+        // `|y|` <= 9 mm, `z` from -29 to 41 mm): the hand behind the handle, palm toward the
+        // pot, thumb up; the proximal phalanges across the outer bar, the middle phalanges
+        // and pads flat on its -y face, the thumb pad on the +y face.
         ObjectKind::Teapot => GraspTemplate {
             palm_normal: [1.0, 0.0, 0.0],
-            fingers: [0.0, 0.0, -1.0],
+            fingers: [0.0, -1.0, 0.0],
             preshape: [
-                human_finger("index", 0.8, 0.7, 0.4),
-                human_finger("middle", 0.8, 0.7, 0.4),
-                human_finger("ring", 0.7, 0.7, 0.4),
-                human_finger("little", 0.7, 0.7, 0.4),
+                human_finger("index", 0.2, 1.5, 0.3),
+                human_finger("middle", 0.2, 1.5, 0.3),
+                human_finger("ring", 0.2, 1.5, 0.3),
+                human_finger("little", 0.3, 1.5, 0.5),
                 vec![
                     ("thumb_cmc_abd", 0.6),
                     ("thumb_cmc_flex", 0.3),
@@ -195,16 +210,23 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             ]
             .concat(),
             targets: vec![
-                human_pad("thumb_tip", [-0.112, 0.03, 0.015]),
-                human_pad("index_tip", [-0.112, -0.03, 0.02]),
-                human_pad("middle_tip", [-0.112, -0.03, 0.0]),
+                human_phalanx("index_proximal", 0.0095, 0.03, [-0.115, 0.0, 0.026]),
+                human_phalanx("middle_proximal", 0.0095, 0.03, [-0.12, 0.0, 0.006]),
+                human_phalanx("ring_proximal", 0.009, 0.03, [-0.118, 0.0, -0.014]),
+                human_phalanx("index_middle", 0.0085, 0.0135, [-0.1, -0.009, 0.026]),
+                human_phalanx("middle_middle", 0.0085, 0.0155, [-0.1, -0.009, 0.006]),
+                human_phalanx("ring_middle", 0.008, 0.015, [-0.1, -0.009, -0.014]),
+                human_pad("index_tip", [-0.082, -0.009, 0.026]),
+                human_pad("middle_tip", [-0.082, -0.009, 0.006]),
+                human_pad("ring_tip", [-0.082, -0.009, -0.014]),
+                human_pad("thumb_tip", [-0.098, 0.009, 0.012]),
             ],
             open: [
-                human_open(&all, 0.5),
+                human_open(&all, 0.9),
                 vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
             ]
             .concat(),
-            approach: [-1.0, 0.0, 0.5],
+            approach: [-1.0, 0.0, 0.4],
             slide: [0.0, 0.0, 1.0],
         },
         _ => return None,
@@ -324,4 +346,30 @@ pub fn objects_for(family: HandFamily) -> Vec<ObjectKind> {
         .into_iter()
         .filter(|o| template(family, *o).is_some())
         .collect()
+}
+
+#[cfg(test)]
+mod scratch {
+    #[test]
+    #[ignore = "scratch"]
+    fn teapot_parts() {
+        use rapier3d_f64::parry::math::Pose;
+        use rapier3d_f64::parry::query::PointQuery;
+        let mesh = crate::synth::objects::ObjectKind::Teapot.mesh();
+        let (s, _) =
+            crate::physics::object_shape(&mesh, &crate::physics::DecompositionParams::default())
+                .unwrap();
+        for p in &s.parts {
+            let a = p.compute_local_aabb();
+            println!("{:?} {:?}", a.mins, a.maxs);
+        }
+        for x in [-0.08, -0.09, -0.1, -0.105] {
+            for z in [0.04, 0.05, 0.059, 0.07, 0.08] {
+                let pt = rapier3d_f64::parry::math::Vector::new(x, 0.0, z);
+                let d = s.compound.distance_to_point(&Pose::identity(), pt, true);
+                print!("({x},{z}):{:.1} ", d * 1e3);
+            }
+            println!();
+        }
+    }
 }
