@@ -350,26 +350,118 @@ pub fn objects_for(family: HandFamily) -> Vec<ObjectKind> {
 
 #[cfg(test)]
 mod scratch {
+    use super::*;
+    use crate::robot::{CollisionShape, Robot, ShapeKind};
+    use crate::synth::grasp::*;
+    use crate::synth::proximity::{ObjectGeometry, penetration};
+    use nalgebra::{Isometry3, Vector3};
+
     #[test]
     #[ignore = "scratch"]
-    fn teapot_parts() {
-        use rapier3d_f64::parry::math::Pose;
-        use rapier3d_f64::parry::query::PointQuery;
-        let mesh = crate::synth::objects::ObjectKind::Teapot.mesh();
-        let (s, _) =
-            crate::physics::object_shape(&mesh, &crate::physics::DecompositionParams::default())
+    fn teapot_try() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let robot =
+            Robot::from_urdf_file(&root.join("robots/human_hand.urdf"), &crate::Limits::default())
                 .unwrap();
-        for p in &s.parts {
-            let a = p.compute_local_aabb();
-            println!("{:?} {:?}", a.mins, a.maxs);
-        }
-        for x in [-0.08, -0.09, -0.1, -0.105] {
-            for z in [0.04, 0.05, 0.059, 0.07, 0.08] {
-                let pt = rapier3d_f64::parry::math::Vector::new(x, 0.0, z);
-                let d = s.compound.distance_to_point(&Pose::identity(), pt, true);
-                print!("({x},{z}):{:.1} ", d * 1e3);
+        let mut t = template(HandFamily::Human, ObjectKind::Teapot).unwrap();
+        // override from /tmp/exp/t.json: {"targets": [[link, hx,hy,hz, r, ox,oy,oz]], "preshape": [[name, v]]}
+        if let Ok(txt) = std::fs::read_to_string("/tmp/exp/t.json") {
+            let v: serde_json::Value = serde_json::from_str(&txt).unwrap();
+            if let Some(ts) = v.get("targets") {
+                t.targets = ts
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|e| {
+                        let a = e.as_array().unwrap();
+                        let f = |i: usize| a[i].as_f64().unwrap();
+                        PadTarget {
+                            link: Box::leak(a[0].as_str().unwrap().to_string().into_boxed_str()),
+                            hand_point: [f(1), f(2), f(3)],
+                            radius: f(4),
+                            object_point: [f(5), f(6), f(7)],
+                        }
+                    })
+                    .collect();
             }
-            println!();
+            if let Some(ps) = v.get("preshape") {
+                t.preshape = ps
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|e| {
+                        let a = e.as_array().unwrap();
+                        (
+                            &*Box::leak(a[0].as_str().unwrap().to_string().into_boxed_str()),
+                            a[1].as_f64().unwrap(),
+                        )
+                    })
+                    .collect();
+            }
+            if let Some(ps) = v.get("palm_normal") {
+                let a: Vec<f64> = serde_json::from_value(ps.clone()).unwrap();
+                t.palm_normal = [a[0], a[1], a[2]];
+            }
+            if let Some(ps) = v.get("fingers") {
+                let a: Vec<f64> = serde_json::from_value(ps.clone()).unwrap();
+                t.fingers = [a[0], a[1], a[2]];
+            }
         }
+        let mesh = ObjectKind::Teapot.mesh();
+        let geo = ObjectGeometry::new(mesh.clone()).unwrap();
+        let shape = CollisionShape::new(
+            ShapeKind::Mesh {
+                path: "x.obj".into(),
+                scale: Vector3::repeat(1.0),
+                mesh: std::sync::Arc::new(mesh),
+            },
+            Isometry3::identity(),
+        )
+        .unwrap();
+        let pose = Isometry3::translation(0.0, 0.0, 0.9 - geo.min_z);
+        let table = CollisionShape::new(
+            ShapeKind::Box {
+                size: Vector3::new(2.0, 2.0, 0.2),
+            },
+            Isometry3::translation(0.0, 0.0, 0.8),
+        )
+        .unwrap();
+        let params = GraspParams {
+            accept_mm: 100.0,
+            max_depth_mm: 100.0,
+            ..GraspParams::default()
+        };
+        let g = solve(&robot, &t, &geo, &shape, &pose, std::slice::from_ref(&table), &params)
+            .unwrap();
+        println!("ik {:.2} mm, depth {:.2}", g.ik_mean_mm, g.depth_mm);
+        let mut poses = robot.new_link_poses();
+        let w = pose * g.wrist_in_object;
+        robot.forward_kinematics(&w, &g.q, &mut poses);
+        let targets = resolve_targets(&robot, &t, &geo).unwrap();
+        for c in &targets {
+            let hp = pose.inverse() * (poses[c.link.index()] * c.hand_point);
+            println!(
+                "{:16} hand {:?} -> obj {:?}: {:.1} mm (at {:.4?})",
+                robot.link(c.link).name,
+                c.hand_point.coords.as_slice(),
+                c.object_point.coords.as_slice(),
+                (hp - c.object_point).norm() * 1e3,
+                hp.coords.as_slice()
+            );
+        }
+        let pen = penetration(&robot, &poses, &geo, &pose);
+        println!("pen {:.2} mm at {:?}", pen.depth_m * 1e3, pen.link.map(|l| robot.link(l).name.clone()));
+        let samples = crate::synth::contacts::hand_samples(&robot, 0.005);
+        let c = crate::synth::contacts::extract(&robot, &samples, &poses, &geo, &pose, 0.006);
+        let mut per: std::collections::BTreeMap<String, usize> = Default::default();
+        for x in &c {
+            *per.entry(x.link.clone()).or_default() += 1;
+        }
+        println!("{} contacts {per:?}", c.len());
+        println!("wrist {:?}", g.wrist_in_object);
+        for (n, v) in robot.actuated_names().iter().zip(&g.q) {
+            print!("{n}={v:.2} ");
+        }
+        println!();
     }
 }

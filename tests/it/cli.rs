@@ -246,3 +246,119 @@ fn filter_keeps_and_explains() {
     ]);
     assert!(!o.status.success() && stderr(&o).contains("from 0 to 1"));
 }
+
+#[test]
+fn synth_writes_a_demo_that_validates_and_refuses_unknown_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = dir.path().join("box.demo.json");
+    let o = dexwarp(&[
+        "synth",
+        "--object",
+        "small_box",
+        "--robot",
+        repo("robots/parallel_gripper.urdf").to_str().unwrap(),
+        "--motion",
+        "lift_place",
+        "--out",
+        demo.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        dir.path().join("small_box.obj").is_file(),
+        "the mesh is written beside the demo"
+    );
+    let first = std::fs::read(&demo).unwrap();
+    // Validate it in the kitchen: the synthesized grasp holds.
+    let out = dir.path().join("check");
+    let o = dexwarp(&[
+        "validate",
+        demo.to_str().unwrap(),
+        "--scene",
+        repo("scenes/kitchen.json").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(
+        report["physics"]["verdict"], "pass",
+        "{}",
+        report["physics"]
+    );
+    assert!(out.join("frames.csv").is_file());
+    // Deterministic: the same arguments give the same bytes.
+    let o = dexwarp(&[
+        "synth",
+        "--object",
+        "small_box",
+        "--robot",
+        repo("robots/parallel_gripper.urdf").to_str().unwrap(),
+        "--motion",
+        "lift_place",
+        "--out",
+        demo.to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    assert!(
+        std::fs::read(&demo).unwrap() == first,
+        "synth is not deterministic"
+    );
+    // Unknown names list what is available.
+    let o = dexwarp(&[
+        "synth", "--object", "kettle", "--robot", "x.urdf", "--motion", "pour", "--out", "k.json",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("valid objects are: cube"),
+        "{}",
+        stderr(&o)
+    );
+    let o = dexwarp(&[
+        "synth",
+        "--object",
+        "mug",
+        "--robot",
+        repo("robots/human_hand.urdf").to_str().unwrap(),
+        "--motion",
+        "juggle",
+        "--out",
+        dir.path().join("m.json").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success() && stderr(&o).contains("valid motions are: lift_place"));
+}
+
+#[test]
+fn validate_errors_name_what_is_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    gripper_fixture(dir.path());
+    let demo = dir.path().join("box.demo.json");
+    let out = dir.path().join("v");
+    let o = dexwarp(&[
+        "validate",
+        demo.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("names no scene") && stderr(&o).contains("--scene"),
+        "{}",
+        stderr(&o)
+    );
+    let o = dexwarp(&[
+        "validate",
+        demo.to_str().unwrap(),
+        "--scene",
+        dir.path().join("scene.json").to_str().unwrap(),
+        "--barrier",
+        "cupboard",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("\"cupboard\" is not an item"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.join("report.json").exists());
+}
