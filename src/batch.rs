@@ -16,7 +16,6 @@
 //! Memory stays flat as the batch grows: items are run and written one at a time per worker and
 //! only a one-line summary of each is kept.
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
@@ -26,6 +25,7 @@ use serde::{Deserialize, Serialize};
 use crate::hand::ik::Solver;
 use crate::model::json::{read_limited, resolve_relative, write_atomic, write_json_atomic};
 use crate::model::report::{REPORT_FORMAT, Report};
+use crate::output::progress;
 use crate::pipeline::{self, HandMethod, Inputs, Options};
 use crate::{Error, Limits, Result};
 
@@ -220,19 +220,7 @@ pub fn run(items: &[Item], out: &Path, options: &BatchOptions) -> Result<Vec<Out
         .iter()
         .filter(|it| options.shard.is_none_or(|s| it.index % s.count == s.index))
         .collect();
-    let bar = if options.progress && std::io::stderr().is_terminal() {
-        let bar = indicatif::ProgressBar::new(selected.len() as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} {msg}",
-            )
-            .expect("static template")
-            .progress_chars("=> "),
-        );
-        bar
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
+    let bar = progress::bar(selected.len() as u64, options.progress);
     let work = || {
         selected
             .par_iter()
@@ -246,15 +234,8 @@ pub fn run(items: &[Item], out: &Path, options: &BatchOptions) -> Result<Vec<Out
             })
             .collect::<Vec<_>>()
     };
-    let outcomes = if options.jobs > 0 {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(options.jobs)
-            .build()
-            .map_err(|e| Error::invalid(out, "--jobs", e.to_string()))?
-            .install(work)
-    } else {
-        work()
-    };
+    let outcomes = progress::with_jobs(options.jobs, work)
+        .map_err(|e| Error::invalid(out, "--jobs", e.to_string()))?;
     bar.finish_and_clear();
     let mut w = csv::Writer::from_writer(Vec::new());
     for o in &outcomes {

@@ -449,10 +449,8 @@ fn frame_rows(out: &Demo, object: &ObjectWarp, dc: &[Option<f64>]) -> Vec<FrameR
     let plan = &object.plan;
     let (c0, c1, t_end) = (plan.segment.start, plan.segment.end, plan.t_end_new());
     let tw = &object.retime.timewarp;
-    out.frames
-        .iter()
-        .enumerate()
-        .map(|(t, f)| {
+    (0..out.frames.len())
+        .map(|t| {
             let source_frame = if t < c0 {
                 t
             } else if t <= t_end {
@@ -460,21 +458,7 @@ fn frame_rows(out: &Demo, object: &ObjectWarp, dc: &[Option<f64>]) -> Vec<FrameR
             } else {
                 (t as i64 - plan.post_shift()) as usize
             };
-            let (o, w) = (f.object.translation.vector, f.wrist.translation.vector);
-            FrameRow {
-                frame: t,
-                source_frame,
-                in_contact: (c0..=t_end).contains(&t),
-                object_x: o.x,
-                object_y: o.y,
-                object_z: o.z,
-                wrist_x: w.x,
-                wrist_y: w.y,
-                wrist_z: w.z,
-                d_c_mm: dc[t],
-                d_c_unsmoothed_mm: dc[t],
-                ..FrameRow::default()
-            }
+            FrameRow::new(out, t, source_frame, (c0..=t_end).contains(&t), dc[t])
         })
         .collect()
 }
@@ -535,28 +519,17 @@ pub fn validate(
         })
         .unwrap_or(0.0);
     let segment = demo.contact_segment();
-    let frames = demo
-        .frames
-        .iter()
-        .enumerate()
-        .map(|(t, f)| {
-            let (o, w) = (f.object.translation.vector, f.wrist.translation.vector);
-            FrameRow {
-                frame: t,
-                source_frame: t,
-                in_contact: segment.is_some_and(|s| (s.start..=s.end).contains(&t)),
-                object_x: o.x,
-                object_y: o.y,
-                object_z: o.z,
-                wrist_x: w.x,
-                wrist_y: w.y,
-                wrist_z: w.z,
-                d_c_mm: dc[t],
-                d_c_unsmoothed_mm: dc[t],
-                physics_position_error_mm: report_p.per_frame.position_error_mm.get(t).copied(),
-                physics_rotation_error_deg: report_p.per_frame.rotation_error_deg.get(t).copied(),
-                ..FrameRow::default()
-            }
+    let frames = (0..n)
+        .map(|t| FrameRow {
+            physics_position_error_mm: report_p.per_frame.position_error_mm.get(t).copied(),
+            physics_rotation_error_deg: report_p.per_frame.rotation_error_deg.get(t).copied(),
+            ..FrameRow::new(
+                &demo,
+                t,
+                t,
+                segment.is_some_and(|s| (s.start..=s.end).contains(&t)),
+                dc[t],
+            )
         })
         .collect();
     let mut timing_s = BTreeMap::new();

@@ -38,6 +38,36 @@ pub struct FrameRow {
     pub physics_rotation_error_deg: Option<f64>,
 }
 
+impl FrameRow {
+    /// The row of output frame `frame` of `demo`, whose correspondences come from input frame
+    /// `source_frame`, with its contact distance `d_c_mm` (before and after smoothing alike
+    /// until the caller sets them apart).
+    pub fn new(
+        demo: &crate::model::Demo,
+        frame: usize,
+        source_frame: usize,
+        in_contact: bool,
+        d_c_mm: Option<f64>,
+    ) -> FrameRow {
+        let f = &demo.frames[frame];
+        let (o, w) = (f.object.translation.vector, f.wrist.translation.vector);
+        FrameRow {
+            frame,
+            source_frame,
+            in_contact,
+            object_x: o.x,
+            object_y: o.y,
+            object_z: o.z,
+            wrist_x: w.x,
+            wrist_y: w.y,
+            wrist_z: w.z,
+            d_c_mm,
+            d_c_unsmoothed_mm: d_c_mm,
+            ..FrameRow::default()
+        }
+    }
+}
+
 /// Writes rows as CSV atomically.
 pub fn write_csv(path: &Path, rows: &[FrameRow]) -> Result<()> {
     let mut w = csv::Writer::from_writer(Vec::new());

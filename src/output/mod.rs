@@ -4,6 +4,7 @@
 //! interrupted run never leaves a truncated report.
 
 pub mod frames;
+pub mod progress;
 
 use std::path::{Path, PathBuf};
 

@@ -19,7 +19,6 @@
 pub mod html;
 pub mod tables;
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -28,6 +27,7 @@ use rayon::prelude::*;
 use crate::hand::ik::Solver;
 use crate::hand::robustness::{Corruption, corrupt};
 use crate::model::report::Report;
+use crate::output::progress;
 use crate::pipeline::{self, HandMethod, Inputs, Options};
 use crate::{Error, Limits, Result};
 
@@ -220,19 +220,7 @@ pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
             }
         }
     }
-    let bar = if options.progress && std::io::stderr().is_terminal() {
-        let bar = indicatif::ProgressBar::new(jobs.len() as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} {msg}",
-            )
-            .expect("static template")
-            .progress_chars("=> "),
-        );
-        bar
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
+    let bar = progress::bar(jobs.len() as u64, options.progress);
     let work = || {
         jobs.par_iter()
             .map(|(config, variant)| {
@@ -243,15 +231,8 @@ pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
             })
             .collect::<Vec<_>>()
     };
-    let runs = if options.jobs > 0 {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(options.jobs)
-            .build()
-            .map_err(|e| Error::invalid(&options.out, "--jobs", e.to_string()))?
-            .install(work)
-    } else {
-        work()
-    };
+    let runs = progress::with_jobs(options.jobs, work)
+        .map_err(|e| Error::invalid(&options.out, "--jobs", e.to_string()))?;
     bar.finish_and_clear();
     let rep = Reproduction {
         demos,

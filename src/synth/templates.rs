@@ -10,7 +10,7 @@
 //! | five-finger | cube | from above: thumb on the near face, index and middle on the far face |
 //! | five-finger | frying pan | power grasp of the handle: palm on top, fingers wrapped under, thumb along the top toward the pan |
 //! | five-finger | mug | body from above: thumb on the near side, index, middle and ring on the far side, clear of the handle |
-//! | five-finger | teapot | hook grasp of the handle: proximal phalanges across the outer bar, middle phalanges and pads flat on one side, thumb pad on the other |
+//! | five-finger | teapot | hook grasp of the handle: proximal phalanges across the outer bar, middle phalanges and pads flat on one side, thumb pad on top |
 //! | four-finger | apple | fingertip grasp from above: three fingers on the far side, thumb on the near side |
 //! | four-finger | cube | as the five-finger cube grasp |
 //! | gripper | small box, cube | jaws on two opposite faces, from above |
@@ -192,7 +192,7 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
         // Hook grasp of the handle (`x` from -119 mm at the outer bar to -75 mm at the body,
         // `|y|` <= 9 mm, `z` from -29 to 41 mm): the hand behind the handle, palm toward the
         // pot, thumb up; the proximal phalanges across the outer bar, the middle phalanges
-        // and pads flat on its -y face, the thumb pad on the +y face.
+        // and pads flat on its -y face, the thumb pad on top of the handle.
         ObjectKind::Teapot => GraspTemplate {
             palm_normal: [1.0, 0.0, 0.0],
             fingers: [0.0, -1.0, 0.0],
@@ -210,19 +210,20 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             ]
             .concat(),
             targets: vec![
-                human_phalanx("index_proximal", 0.0095, 0.03, [-0.115, 0.0, 0.026]),
-                human_phalanx("middle_proximal", 0.0095, 0.03, [-0.12, 0.0, 0.006]),
-                human_phalanx("ring_proximal", 0.009, 0.03, [-0.118, 0.0, -0.014]),
-                human_phalanx("index_middle", 0.0085, 0.0135, [-0.1, -0.009, 0.026]),
-                human_phalanx("middle_middle", 0.0085, 0.0155, [-0.1, -0.009, 0.006]),
-                human_phalanx("ring_middle", 0.008, 0.015, [-0.1, -0.009, -0.014]),
-                human_pad("index_tip", [-0.082, -0.009, 0.026]),
-                human_pad("middle_tip", [-0.082, -0.009, 0.006]),
-                human_pad("ring_tip", [-0.082, -0.009, -0.014]),
-                human_pad("thumb_tip", [-0.098, 0.009, 0.012]),
+                human_phalanx("index_proximal", 0.0095, 0.035, [-0.115, 0.0, 0.026]),
+                human_phalanx("middle_proximal", 0.0095, 0.038, [-0.12, 0.0, 0.006]),
+                human_phalanx("ring_proximal", 0.009, 0.036, [-0.118, 0.0, -0.014]),
+                human_phalanx("index_middle", 0.0085, 0.0135, [-0.114, -0.009, 0.026]),
+                human_phalanx("middle_middle", 0.0085, 0.0155, [-0.114, -0.009, 0.006]),
+                human_phalanx("ring_middle", 0.008, 0.015, [-0.114, -0.009, -0.014]),
+                human_pad("index_tip", [-0.092, -0.009, 0.026]),
+                human_pad("middle_tip", [-0.092, -0.009, 0.006]),
+                human_pad("ring_tip", [-0.092, -0.009, -0.014]),
+                human_pad("thumb_tip", [-0.092, 0.0, 0.045]),
             ],
             open: [
-                human_open(&all, 0.9),
+                human_open(&["index", "middle", "ring"], 0.9),
+                human_open(&["little"], 0.4),
                 vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
             ]
             .concat(),
