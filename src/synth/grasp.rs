@@ -2,11 +2,10 @@
 //!
 //! A [`GraspTemplate`] (see [`super::templates`]) names, for one hand family and one
 //! object, where the pads go: each [`PadTarget`] is a finger's pad (its `<finger>_tip` frame,
-//! the pad surface at `+x·radius`), a phalanx (a point of its palm-side surface) or a palm
-//! point, and an object point given roughly (object
+//! the pad surface at `+x·radius`) or a palm point, and an object point given roughly (object
 //! frame); the object point is projected onto the mesh surface. A pad contributes two
 //! correspondences: pad surface point ↔ surface point `s`, and pad centre (the tip frame
-//! origin; for a phalanx the capsule axis point below the surface point) ↔ `s + n·radius` (`n` the outward surface normal), which also aligns the pad
+//! origin) ↔ `s + n·radius` (`n` the outward surface normal), which also aligns the pad
 //! normal with `−n`. The solve:
 //! 1. initial guess: the hand in its preshape, oriented by the template's palm normal and
 //!    finger direction (object frame), placed so that the centroid of its target points
@@ -74,10 +73,8 @@ pub struct PadTarget {
     pub link: &'static str,
     /// Hand point, link frame [m]: the pad surface point for a finger pad.
     pub hand_point: [f64; 3],
-    /// Pad radius [m]: when positive, the point `radius` behind the hand point along the
-    /// link's `−x` (the pad centre: the link origin for a `<finger>_tip` pad, a point of the
-    /// capsule axis for a phalanx) is targeted at `radius` above the surface along the
-    /// normal (see the module docs).
+    /// Pad radius [m]: when positive, the link origin is the pad centre and is targeted at
+    /// `radius` above the surface along the normal (see the module docs).
     pub radius: f64,
     /// Rough object point, object frame [m]; projected onto the surface.
     pub object_point: [f64; 3],
@@ -189,7 +186,7 @@ pub fn resolve_targets(
             let n = object.normal(&s);
             out.push(ResolvedContact {
                 link,
-                hand_point: Point3::new(t.hand_point[0] - t.radius, t.hand_point[1], t.hand_point[2]),
+                hand_point: Point3::origin(),
                 object_point: s + n * t.radius,
             });
         }

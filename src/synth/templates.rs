@@ -10,7 +10,7 @@
 //! | five-finger | cube | from above: thumb on the near face, index and middle on the far face |
 //! | five-finger | frying pan | power grasp of the handle: palm on top, fingers wrapped under, thumb along the top toward the pan |
 //! | five-finger | mug | body from above: thumb on the near side, index, middle and ring on the far side, clear of the handle |
-//! | five-finger | teapot | hook grasp of the handle: proximal phalanges across the outer bar, middle phalanges and pads flat on one side, thumb pad on top |
+//! | five-finger | teapot | handle pinch: thumb on one side of the handle's outer bar, index and middle on the other |
 //! | four-finger | apple | fingertip grasp from above: three fingers on the far side, thumb on the near side |
 //! | four-finger | cube | as the five-finger cube grasp |
 //! | gripper | small box, cube | jaws on two opposite faces, from above |
@@ -46,17 +46,6 @@ fn allegro_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
         link: tip,
         hand_point: [ALLEGRO_PAD, 0.0, 0.0],
         radius: ALLEGRO_PAD,
-        object_point,
-    }
-}
-
-/// A point of a phalanx of the human hand: on the palm-side surface of its capsule
-/// (radius `r`) at `z` along the link.
-fn human_phalanx(link: &'static str, r: f64, z: f64, object_point: [f64; 3]) -> PadTarget {
-    PadTarget {
-        link,
-        hand_point: [r, 0.0, z],
-        radius: r,
         object_point,
     }
 }
@@ -189,18 +178,14 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             approach: [0.0, -0.5, 1.0],
             slide: [0.0, 0.0, 1.0],
         },
-        // Hook grasp of the handle (`x` from -119 mm at the outer bar to -75 mm at the body,
-        // `|y|` <= 9 mm, `z` from -29 to 41 mm): the hand behind the handle, palm toward the
-        // pot, thumb up; the proximal phalanges across the outer bar, the middle phalanges
-        // and pads flat on its -y face, the thumb pad on top of the handle.
         ObjectKind::Teapot => GraspTemplate {
             palm_normal: [1.0, 0.0, 0.0],
-            fingers: [0.0, -1.0, 0.0],
+            fingers: [0.0, 0.0, -1.0],
             preshape: [
-                human_finger("index", 0.2, 1.5, 0.3),
-                human_finger("middle", 0.2, 1.5, 0.3),
-                human_finger("ring", 0.2, 1.5, 0.3),
-                human_finger("little", 0.3, 1.5, 0.5),
+                human_finger("index", 0.8, 0.7, 0.4),
+                human_finger("middle", 0.8, 0.7, 0.4),
+                human_finger("ring", 0.7, 0.7, 0.4),
+                human_finger("little", 0.7, 0.7, 0.4),
                 vec![
                     ("thumb_cmc_abd", 0.6),
                     ("thumb_cmc_flex", 0.3),
@@ -210,24 +195,16 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             ]
             .concat(),
             targets: vec![
-                human_phalanx("index_proximal", 0.0095, 0.035, [-0.115, 0.0, 0.026]),
-                human_phalanx("middle_proximal", 0.0095, 0.038, [-0.12, 0.0, 0.006]),
-                human_phalanx("ring_proximal", 0.009, 0.036, [-0.118, 0.0, -0.014]),
-                human_phalanx("index_middle", 0.0085, 0.0135, [-0.114, -0.009, 0.026]),
-                human_phalanx("middle_middle", 0.0085, 0.0155, [-0.114, -0.009, 0.006]),
-                human_phalanx("ring_middle", 0.008, 0.015, [-0.114, -0.009, -0.014]),
-                human_pad("index_tip", [-0.092, -0.009, 0.026]),
-                human_pad("middle_tip", [-0.092, -0.009, 0.006]),
-                human_pad("ring_tip", [-0.092, -0.009, -0.014]),
-                human_pad("thumb_tip", [-0.092, 0.0, 0.045]),
+                human_pad("thumb_tip", [-0.112, 0.03, 0.015]),
+                human_pad("index_tip", [-0.112, -0.03, 0.02]),
+                human_pad("middle_tip", [-0.112, -0.03, 0.0]),
             ],
             open: [
-                human_open(&["index", "middle", "ring"], 0.9),
-                human_open(&["little"], 0.4),
+                human_open(&all, 0.5),
                 vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
             ]
             .concat(),
-            approach: [-1.0, 0.0, 0.4],
+            approach: [-1.0, 0.0, 0.5],
             slide: [0.0, 0.0, 1.0],
         },
         _ => return None,
@@ -347,122 +324,4 @@ pub fn objects_for(family: HandFamily) -> Vec<ObjectKind> {
         .into_iter()
         .filter(|o| template(family, *o).is_some())
         .collect()
-}
-
-#[cfg(test)]
-mod scratch {
-    use super::*;
-    use crate::robot::{CollisionShape, Robot, ShapeKind};
-    use crate::synth::grasp::*;
-    use crate::synth::proximity::{ObjectGeometry, penetration};
-    use nalgebra::{Isometry3, Vector3};
-
-    #[test]
-    #[ignore = "scratch"]
-    fn teapot_try() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        let robot =
-            Robot::from_urdf_file(&root.join("robots/human_hand.urdf"), &crate::Limits::default())
-                .unwrap();
-        let mut t = template(HandFamily::Human, ObjectKind::Teapot).unwrap();
-        // override from /tmp/exp/t.json: {"targets": [[link, hx,hy,hz, r, ox,oy,oz]], "preshape": [[name, v]]}
-        if let Ok(txt) = std::fs::read_to_string("/tmp/exp/t.json") {
-            let v: serde_json::Value = serde_json::from_str(&txt).unwrap();
-            if let Some(ts) = v.get("targets") {
-                t.targets = ts
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|e| {
-                        let a = e.as_array().unwrap();
-                        let f = |i: usize| a[i].as_f64().unwrap();
-                        PadTarget {
-                            link: Box::leak(a[0].as_str().unwrap().to_string().into_boxed_str()),
-                            hand_point: [f(1), f(2), f(3)],
-                            radius: f(4),
-                            object_point: [f(5), f(6), f(7)],
-                        }
-                    })
-                    .collect();
-            }
-            if let Some(ps) = v.get("preshape") {
-                t.preshape = ps
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|e| {
-                        let a = e.as_array().unwrap();
-                        (
-                            &*Box::leak(a[0].as_str().unwrap().to_string().into_boxed_str()),
-                            a[1].as_f64().unwrap(),
-                        )
-                    })
-                    .collect();
-            }
-            if let Some(ps) = v.get("palm_normal") {
-                let a: Vec<f64> = serde_json::from_value(ps.clone()).unwrap();
-                t.palm_normal = [a[0], a[1], a[2]];
-            }
-            if let Some(ps) = v.get("fingers") {
-                let a: Vec<f64> = serde_json::from_value(ps.clone()).unwrap();
-                t.fingers = [a[0], a[1], a[2]];
-            }
-        }
-        let mesh = ObjectKind::Teapot.mesh();
-        let geo = ObjectGeometry::new(mesh.clone()).unwrap();
-        let shape = CollisionShape::new(
-            ShapeKind::Mesh {
-                path: "x.obj".into(),
-                scale: Vector3::repeat(1.0),
-                mesh: std::sync::Arc::new(mesh),
-            },
-            Isometry3::identity(),
-        )
-        .unwrap();
-        let pose = Isometry3::translation(0.0, 0.0, 0.9 - geo.min_z);
-        let table = CollisionShape::new(
-            ShapeKind::Box {
-                size: Vector3::new(2.0, 2.0, 0.2),
-            },
-            Isometry3::translation(0.0, 0.0, 0.8),
-        )
-        .unwrap();
-        let params = GraspParams {
-            accept_mm: 100.0,
-            max_depth_mm: 100.0,
-            ..GraspParams::default()
-        };
-        let g = solve(&robot, &t, &geo, &shape, &pose, std::slice::from_ref(&table), &params)
-            .unwrap();
-        println!("ik {:.2} mm, depth {:.2}", g.ik_mean_mm, g.depth_mm);
-        let mut poses = robot.new_link_poses();
-        let w = pose * g.wrist_in_object;
-        robot.forward_kinematics(&w, &g.q, &mut poses);
-        let targets = resolve_targets(&robot, &t, &geo).unwrap();
-        for c in &targets {
-            let hp = pose.inverse() * (poses[c.link.index()] * c.hand_point);
-            println!(
-                "{:16} hand {:?} -> obj {:?}: {:.1} mm (at {:.4?})",
-                robot.link(c.link).name,
-                c.hand_point.coords.as_slice(),
-                c.object_point.coords.as_slice(),
-                (hp - c.object_point).norm() * 1e3,
-                hp.coords.as_slice()
-            );
-        }
-        let pen = penetration(&robot, &poses, &geo, &pose);
-        println!("pen {:.2} mm at {:?}", pen.depth_m * 1e3, pen.link.map(|l| robot.link(l).name.clone()));
-        let samples = crate::synth::contacts::hand_samples(&robot, 0.005);
-        let c = crate::synth::contacts::extract(&robot, &samples, &poses, &geo, &pose, 0.006);
-        let mut per: std::collections::BTreeMap<String, usize> = Default::default();
-        for x in &c {
-            *per.entry(x.link.clone()).or_default() += 1;
-        }
-        println!("{} contacts {per:?}", c.len());
-        println!("wrist {:?}", g.wrist_in_object);
-        for (n, v) in robot.actuated_names().iter().zip(&g.q) {
-            print!("{n}={v:.2} ");
-        }
-        println!();
-    }
 }
