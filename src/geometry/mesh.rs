@@ -34,6 +34,51 @@ pub struct Mesh {
 const SUPPORTED: &str = "supported mesh formats are .obj and .stl";
 
 impl Mesh {
+    /// The mesh split into its vertex-connected parts (closed parts that overlap without
+    /// sharing vertices, like a mug's body and handle, come out separately).
+    pub fn connected_parts(&self) -> Vec<Mesh> {
+        let mesh = self;
+        fn find(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        let n = mesh.vertices.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        for t in &mesh.triangles {
+            let a = find(&mut parent, t[0] as usize);
+            for &v in &t[1..] {
+                let b = find(&mut parent, v as usize);
+                if a != b {
+                    parent[b] = a;
+                }
+            }
+        }
+        let mut part_of_root = vec![usize::MAX; n];
+        let mut parts: Vec<Mesh> = Vec::new();
+        let mut local = vec![u32::MAX; n];
+        for t in &mesh.triangles {
+            let root = find(&mut parent, t[0] as usize);
+            if part_of_root[root] == usize::MAX {
+                part_of_root[root] = parts.len();
+                parts.push(Mesh::default());
+            }
+            let part = &mut parts[part_of_root[root]];
+            let tri = t.map(|v| {
+                let v = v as usize;
+                if local[v] == u32::MAX {
+                    local[v] = part.vertices.len() as u32;
+                    part.vertices.push(mesh.vertices[v]);
+                }
+                local[v]
+            });
+            part.triangles.push(tri);
+        }
+        parts
+    }
+
     /// Loads an OBJ (all objects and groups merged, polygons triangulated, identical
     /// positions merged, vertices renumbered in order of first use, unused ones dropped) or STL (binary or ASCII) file and multiplies every vertex
     /// component-wise by `scale`.

@@ -93,19 +93,24 @@ fn content_key(mesh: &Mesh, params: &DecompositionParams) -> u64 {
 fn build(mesh: &Mesh, params: &DecompositionParams) -> Option<ObjectShape> {
     let start = Instant::now();
     let points: Vec<Vector> = mesh.vertices.iter().map(to_point).collect();
-    let hull = SharedShape::convex_hull(&points)?;
-    let hull_volume = hull.mass_properties(1.0).mass();
-    let mesh_volume = mesh.signed_volume().abs();
-    let closed = mesh.is_closed_and_consistently_wound();
-    let (parts, method) = if closed && mesh_volume >= 0.99 * hull_volume {
-        (vec![hull], ShapeMethod::ConvexMesh)
-    } else if !closed {
-        (vec![hull], ShapeMethod::HullFallback)
+    // Degenerate check on the whole object.
+    SharedShape::convex_hull(&points)?;
+    // Each connected part on its own: a handle that overlaps a body without sharing its
+    // vertices keeps its opening (decomposing the union at once fills it, because the voxel
+    // grid is sized to the whole object).
+    let mut parts = Vec::new();
+    let mut methods = Vec::new();
+    for part in mesh.connected_parts() {
+        let (shapes, method) = build_part(&part, params)?;
+        parts.extend(shapes);
+        methods.push(method);
+    }
+    let method = if methods.contains(&ShapeMethod::HullFallback) {
+        ShapeMethod::HullFallback
+    } else if methods.iter().all(|m| *m == ShapeMethod::ConvexMesh) {
+        ShapeMethod::ConvexMesh
     } else {
-        match decompose(&points, &mesh.triangles, params) {
-            Some(parts) if !parts.is_empty() => (parts, ShapeMethod::Decomposition),
-            _ => (vec![hull], ShapeMethod::HullFallback),
-        }
+        ShapeMethod::Decomposition
     };
     let compound =
         SharedShape::compound(parts.iter().map(|p| (Pose::IDENTITY, p.clone())).collect());
@@ -114,6 +119,28 @@ fn build(mesh: &Mesh, params: &DecompositionParams) -> Option<ObjectShape> {
         compound,
         method,
         build_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// One connected part: its hull when it is convex (or not closed), else its V-HACD parts.
+fn build_part(
+    mesh: &Mesh,
+    params: &DecompositionParams,
+) -> Option<(Vec<SharedShape>, ShapeMethod)> {
+    let points: Vec<Vector> = mesh.vertices.iter().map(to_point).collect();
+    let hull = SharedShape::convex_hull(&points)?;
+    let hull_volume = hull.mass_properties(1.0).mass();
+    let mesh_volume = mesh.signed_volume().abs();
+    let closed = mesh.is_closed_and_consistently_wound();
+    Some(if closed && mesh_volume >= 0.99 * hull_volume {
+        (vec![hull], ShapeMethod::ConvexMesh)
+    } else if !closed {
+        (vec![hull], ShapeMethod::HullFallback)
+    } else {
+        match decompose(&points, &mesh.triangles, params) {
+            Some(parts) if !parts.is_empty() => (parts, ShapeMethod::Decomposition),
+            _ => (vec![hull], ShapeMethod::HullFallback),
+        }
     })
 }
 

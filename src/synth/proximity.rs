@@ -60,7 +60,8 @@ impl ObjectGeometry {
     /// Prepares `mesh`; `None` when it has no triangles.
     pub fn new(mesh: Mesh) -> Option<ObjectGeometry> {
         let whole = mesh.to_trimesh(false)?;
-        let parts = split_parts(&mesh)
+        let parts = mesh
+            .connected_parts()
             .iter()
             .filter_map(|p| {
                 let oriented = p.is_closed_and_consistently_wound();
@@ -249,49 +250,6 @@ fn core_points(shape: &CollisionShape) -> (f64, Vec<Point3<f64>>) {
     }
 }
 
-/// Splits a mesh into its vertex-connected parts (the objects' parts share no vertices).
-pub fn split_parts(mesh: &Mesh) -> Vec<Mesh> {
-    fn find(p: &mut [usize], mut i: usize) -> usize {
-        while p[i] != i {
-            p[i] = p[p[i]];
-            i = p[i];
-        }
-        i
-    }
-    let n = mesh.vertices.len();
-    let mut parent: Vec<usize> = (0..n).collect();
-    for t in &mesh.triangles {
-        let a = find(&mut parent, t[0] as usize);
-        for &v in &t[1..] {
-            let b = find(&mut parent, v as usize);
-            if a != b {
-                parent[b] = a;
-            }
-        }
-    }
-    let mut part_of_root = vec![usize::MAX; n];
-    let mut parts: Vec<Mesh> = Vec::new();
-    let mut local = vec![u32::MAX; n];
-    for t in &mesh.triangles {
-        let root = find(&mut parent, t[0] as usize);
-        if part_of_root[root] == usize::MAX {
-            part_of_root[root] = parts.len();
-            parts.push(Mesh::default());
-        }
-        let part = &mut parts[part_of_root[root]];
-        let tri = t.map(|v| {
-            let v = v as usize;
-            if local[v] == u32::MAX {
-                local[v] = part.vertices.len() as u32;
-                part.vertices.push(mesh.vertices[v]);
-            }
-            local[v]
-        });
-        part.triangles.push(tri);
-    }
-    parts
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -312,7 +270,7 @@ mod tests {
     #[test]
     fn the_mug_handle_is_inside_the_object() {
         let mesh = ObjectKind::Mug.mesh();
-        assert_eq!(split_parts(&mesh).len(), 2);
+        assert_eq!(mesh.connected_parts().len(), 2);
         let geo = ObjectGeometry::new(mesh).unwrap();
         let far = geo
             .mesh
