@@ -85,6 +85,10 @@ enum Command {
         /// Worker threads (default: one per core).
         #[arg(long, value_name = "N", default_value_t = 0)]
         jobs: usize,
+        /// Folder holding scenes/configs (default: the current folder, else the source tree
+        /// this binary was built from).
+        #[arg(long, value_name = "DIR")]
+        root: Option<PathBuf>,
     },
     /// Make a demonstration: the object resting on a support, the hand reaching and grasping
     /// it (contact IK), a scripted motion, release and retreat, with geometric correspondences.
@@ -317,8 +321,20 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     let limits = cli.limits.limits();
     match cli.command {
-        Command::Reproduce { out, quick, jobs } => {
-            let root = repository_root()?;
+        Command::Reproduce {
+            out,
+            quick,
+            jobs,
+            root,
+        } => {
+            let root = match root {
+                Some(r) if r.join("scenes/configs").is_dir() => r,
+                Some(r) => anyhow::bail!(
+                    "{}: no scenes/configs folder; --root must be a folder holding scenes/configs/*.json",
+                    r.display()
+                ),
+                None => repository_root()?,
+            };
             let rep = dexwarp::reproduce::run(&dexwarp::reproduce::ReproduceOptions {
                 out: out.clone(),
                 root,

@@ -362,3 +362,40 @@ fn validate_errors_name_what_is_missing() {
     );
     assert!(!out.join("report.json").exists());
 }
+
+#[test]
+fn reproduce_runs_on_a_scene_folder_and_refuses_a_folder_without_configs() {
+    let root = tempfile::tempdir().unwrap();
+    let configs = root.path().join("scenes/configs");
+    std::fs::create_dir_all(&configs).unwrap();
+    let config = gripper_fixture(root.path());
+    let text = std::fs::read_to_string(&config)
+        .unwrap()
+        .replace("\"box.demo.json\"", "\"../../box.demo.json\"")
+        .replace("\"scene.json\"", "\"../../scene.json\"");
+    std::fs::write(configs.join("box_lift.json"), text).unwrap();
+    let out = root.path().join("out");
+    let o = dexwarp(&[
+        "reproduce",
+        "--quick",
+        "--root",
+        root.path().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("5 runs"), "{}", stderr(&o));
+    assert!(out.join("summary.md").is_file() && out.join("index.html").is_file());
+    let o = dexwarp(&[
+        "reproduce",
+        "--root",
+        out.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("no scenes/configs"),
+        "{}",
+        stderr(&o)
+    );
+}
