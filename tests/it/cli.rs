@@ -251,17 +251,20 @@ fn filter_keeps_and_explains() {
 fn synth_writes_a_demo_that_validates_and_refuses_unknown_names() {
     let dir = tempfile::tempdir().unwrap();
     let demo = dir.path().join("box.demo.json");
-    let o = dexwarp(&[
-        "synth",
-        "--object",
-        "small_box",
-        "--robot",
-        repo("robots/parallel_gripper.urdf").to_str().unwrap(),
-        "--motion",
-        "lift_place",
-        "--out",
-        demo.to_str().unwrap(),
-    ]);
+    let synth = || {
+        dexwarp(&[
+            "synth",
+            "--object",
+            "small_box",
+            "--robot",
+            repo("robots/parallel_gripper.urdf").to_str().unwrap(),
+            "--motion",
+            "lift_place",
+            "--out",
+            demo.to_str().unwrap(),
+        ])
+    };
+    let o = synth();
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         dir.path().join("small_box.obj").is_file(),
@@ -288,17 +291,7 @@ fn synth_writes_a_demo_that_validates_and_refuses_unknown_names() {
     );
     assert!(out.join("frames.csv").is_file());
     // Deterministic: the same arguments give the same bytes.
-    let o = dexwarp(&[
-        "synth",
-        "--object",
-        "small_box",
-        "--robot",
-        repo("robots/parallel_gripper.urdf").to_str().unwrap(),
-        "--motion",
-        "lift_place",
-        "--out",
-        demo.to_str().unwrap(),
-    ]);
+    let o = synth();
     assert!(o.status.success());
     assert!(
         std::fs::read(&demo).unwrap() == first,
