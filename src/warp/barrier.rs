@@ -105,6 +105,9 @@ pub struct Barrier {
     hull: ConvexPolyhedron,
     /// Bounding radius of the object [m].
     radius: f64,
+    /// Farthest a conflicting point can be from the centroid [m]: beyond it no ray is inside,
+    /// which bounds the stepping loops.
+    reach: f64,
 }
 
 impl Barrier {
@@ -160,6 +163,11 @@ impl Barrier {
             })
             .collect();
         let hull = ConvexPolyhedron::from_convex_hull(&pts)?;
+        let far = verts
+            .iter()
+            .map(|v| (v - centroid).norm())
+            .fold(0.0, f64::max);
+        let reach = far * scale + object_radius;
         Some(Barrier {
             name: name.to_string(),
             centroid,
@@ -169,6 +177,7 @@ impl Barrier {
             scale,
             hull,
             radius: object_radius,
+            reach,
         })
     }
 
@@ -212,6 +221,8 @@ impl Barrier {
             // scene with gravity.
             None => (Vector3::z(), 0.0),
         };
+        // Past `reach` from the centroid no point is in conflict: the loops below end there.
+        let max_k = ((self.reach - dist).max(0.0) / step).ceil() + 1.0;
         match mode {
             PushoutMode::Paper => {
                 // Exit parameter of the ray c + λ·dir from the scaled hull.
@@ -224,9 +235,9 @@ impl Barrier {
                         (nd > 1e-15).then(|| (d - n.dot(&self.centroid.coords)) / nd)
                     })
                     .fold(f64::INFINITY, f64::min);
-                let mut k = ((exit - dist) / step).ceil().max(1.0);
+                let mut k = ((exit - dist) / step).ceil().clamp(1.0, max_k);
                 let mut q = self.centroid + dir * (dist + k * step);
-                while self.contains(&q, mode) && k < 1e7 {
+                while self.contains(&q, mode) && k < max_k {
                     k += 1.0;
                     q = self.centroid + dir * (dist + k * step);
                 }
@@ -235,8 +246,7 @@ impl Barrier {
             PushoutMode::Exact => {
                 let mut q = *p;
                 let mut k = 0.0;
-                // Bounded: the ray leaves the hull's r-neighbourhood within its diameter + r.
-                while self.contains(&q, mode) && k < 1e7 {
+                while self.contains(&q, mode) && k < max_k {
                     k += 1.0;
                     q = self.centroid + dir * (dist + k * step);
                 }
