@@ -13,8 +13,8 @@ use dexwarp::{Limits, batch, filter};
 /// Warp one dexterous-manipulation demonstration into many.
 ///
 /// dexwarp moves the object of a demonstration through new waypoints, around barriers, on a
-/// new timing and from a new start to a new end, recovers the hand, and writes a quality report
-/// per trajectory.
+/// new timing and from a new start to a new end, recovers the hand by contact IK, replays every
+/// output in physics, and writes a quality report per trajectory.
 #[derive(Debug, Parser)]
 #[command(name = "dexwarp", version, propagate_version = true)]
 struct Cli {
@@ -126,7 +126,8 @@ enum Command {
         /// URDF file.
         urdf: PathBuf,
     },
-    /// Warp one demonstration with one config; writes DIR/<name>.demo.json and DIR/report.json.
+    /// Warp one demonstration with one config; writes DIR/<name>.demo.json, DIR/report.json and
+    /// DIR/frames.csv.
     #[command(
         after_help = "Examples:\n  dexwarp warp --config scenes/configs/mug_pass_wall.json --out out/mug\n  dexwarp warp --config my.json --demo my.demo.json --out out/x --hand baseline\n  dexwarp warp --config scenes/configs/teapot_pour_cups.json --out out/t --threshold-mm 5 --solver adam"
     )]
