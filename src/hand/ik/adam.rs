@@ -1,0 +1,110 @@
+//! The `adam` solver: the paper's Adam on exactly the printed objective.
+
+use nalgebra::{Isometry3, Vector3};
+
+use super::*;
+
+impl IkSolver<'_> {
+    /// The paper's Adam (see the module docs). Returns (converged, iterations, eval).
+    pub(super) fn solve_adam(
+        &mut self,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &mut Isometry3<f64>,
+        q: &mut [f64],
+    ) -> (bool, usize, Eval) {
+        const B1: f64 = 0.9;
+        const B2: f64 = 0.999;
+        const EPS: f64 = 1e-8;
+        let nc = contacts.len();
+        let cap = self.params.iteration_cap();
+        let threshold = self.threshold_m();
+        let lr = self.params.learning_rate;
+        let robot = self.geo.robot;
+        self.adam_m.fill(0.0);
+        self.adam_v.fill(0.0);
+        let (mut b1t, mut b2t) = (1.0, 1.0);
+        let mut iterations = 0;
+        loop {
+            let cur = self.evaluate(false, object_pose, contacts, wrist, q);
+            if cur.mean_m(nc) < threshold {
+                return (true, iterations, cur);
+            }
+            if iterations >= cap {
+                return (false, iterations, cur);
+            }
+            self.gradient(object_pose, contacts);
+            iterations += 1;
+            b1t *= B1;
+            b2t *= B2;
+            for k in 0..self.n {
+                let gk = self.g[k];
+                self.adam_m[k] = B1 * self.adam_m[k] + (1.0 - B1) * gk;
+                self.adam_v[k] = B2 * self.adam_v[k] + (1.0 - B2) * gk * gk;
+                let mh = self.adam_m[k] / (1.0 - b1t);
+                let vh = self.adam_v[k] / (1.0 - b2t);
+                self.step[k] = -lr * mh / (vh.sqrt() + EPS);
+            }
+            let s = &self.step;
+            apply_wrist_step(
+                wrist,
+                &Vector3::new(s[0], s[1], s[2]),
+                &Vector3::new(s[3], s[4], s[5]),
+            );
+            for j in 0..q.len() {
+                q[j] += s[WRIST_DOF + j];
+            }
+            robot.clamp(q);
+        }
+    }
+
+    /// `g = ∇F` at `self.poses` (exactly the printed objective, no proximal term).
+    pub(super) fn gradient(&mut self, object_pose: &Isometry3<f64>, contacts: &[ResolvedContact]) {
+        self.g.fill(0.0);
+        let geo = &self.geo;
+        let robot = geo.robot;
+        let poses = &self.poses[..];
+        let g = self.g.as_mut_slice();
+        let jac = &mut self.jac[..];
+        let inv_n = 1.0 / contacts.len().max(1) as f64;
+        for c in contacts {
+            let l = c.link.index();
+            let ph = poses[l] * c.hand_point;
+            let r = ph - object_pose * c.object_point;
+            let d = r.norm();
+            if d < 1e-15 {
+                continue;
+            }
+            let u = r * (inv_n / d);
+            robot.world_point_jacobian(poses, c.link, &ph, jac);
+            for &a in geo.cols(l) {
+                g[a] += u.dot(&jac[a]);
+            }
+        }
+        let p = &self.params;
+        if p.barrier_weight > 0.0 {
+            let (m, n, w) = (p.margin_m, p.steepness, p.barrier_weight);
+            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
+                geo.near_points(poses, shape, obstacle, m, |l, pt, d, grad| {
+                    let gap = 1.0 - d / m;
+                    let coeff = -w * n * gap.powf(n - 1.0) / m;
+                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                    for &a in geo.cols(l) {
+                        g[a] += coeff * grad.dot(&jac[a]);
+                    }
+                });
+            }
+        }
+        if let (Some(shape), Some(obstacle)) = (geo.object, &self.object_obstacle) {
+            let (m, w) = (p.margin_m, p.penetration_weight);
+            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
+                // d(w (−d/m)²) = 2w d/m² ∇d.
+                let coeff = 2.0 * w * d / (m * m);
+                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                for &a in geo.cols(l) {
+                    g[a] += coeff * grad.dot(&jac[a]);
+                }
+            });
+        }
+    }
+}
