@@ -96,6 +96,8 @@ pub fn base_demos() -> Vec<BaseDemo> {
     teapot.contacts.seed = 14;
     teapot.contacts.max_distance_mm = 6.0;
     teapot.contacts.spacing_mm = 5.0;
+    // The hook grasp's phalanx targets are met to about 7 mm.
+    teapot.grasp.accept_mm = 8.0;
 
     let mut apple = SynthSpec::new("apple", ObjectKind::Apple, Motion::LiftPlace);
     apple.start_xy = [0.55, -0.65];

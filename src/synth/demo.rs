@@ -352,7 +352,7 @@ fn build_frames(
     let end = motion::object_pose(spec.motion, &spec.motion_params, start, 1.0);
     // Retreat pose of an object pose: the grasp moved back along the approach direction
     // (object frame, turned by the object's yaw only so the hand stays upright) and turned
-    // 0.25 rad about the vertical, as a relaxed hand would be.
+    // about the vertical by the template's `turn_rad`.
     let offset_pose = |object: &Isometry3<f64>, dist: f64, turn: f64| -> Isometry3<f64> {
         let grasp = object * g.wrist_in_object;
         let dir = object.rotation * approach;
@@ -380,7 +380,7 @@ fn build_frames(
             contacts: c,
         });
     };
-    let far = offset_pose(start, spec.retreat_m, 0.25);
+    let far = offset_pose(start, spec.retreat_m, template.turn_rad);
     let pre = offset_pose(start, 0.05, 0.0);
     let grasp_w = start * g.wrist_in_object;
     for _ in 0..t.idle {
@@ -439,7 +439,7 @@ fn build_frames(
             Vec::new(),
         );
     }
-    let far_end = offset_pose(&end, spec.retreat_m, -0.25);
+    let far_end = offset_pose(&end, spec.retreat_m, -template.turn_rad);
     for k in 1..=t.retreat {
         let s = min_jerk(k as f64 / t.retreat as f64);
         push(

@@ -73,8 +73,9 @@ pub struct PadTarget {
     pub link: &'static str,
     /// Hand point, link frame [m]: the pad surface point for a finger pad.
     pub hand_point: [f64; 3],
-    /// Pad radius [m]: when positive, the link origin is the pad centre and is targeted at
-    /// `radius` above the surface along the normal (see the module docs).
+    /// Pad radius [m]: when positive, the pad centre (`hand_point` moved `radius` along the
+    /// link's `−x`: the link origin for a fingertip pad) is targeted at `radius` above the
+    /// surface along the normal (see the module docs).
     pub radius: f64,
     /// Rough object point, object frame [m]; projected onto the surface.
     pub object_point: [f64; 3],
@@ -99,6 +100,10 @@ pub struct GraspTemplate {
     /// A direction the grasp can slide along without pressing into the object (object
     /// frame), for the motion-capture drift of [`super::contacts::Noise`].
     pub slide: [f64; 3],
+    /// Turn of the retreat poses about the vertical [rad]: `+turn_rad` at the start,
+    /// `-turn_rad` at the end, as a relaxed hand would be; 0 keeps the hand on the
+    /// approach line (where it must slide in and out along a handle).
+    pub turn_rad: f64,
 }
 
 /// Tunables of the grasp solve.
@@ -186,7 +191,11 @@ pub fn resolve_targets(
             let n = object.normal(&s);
             out.push(ResolvedContact {
                 link,
-                hand_point: Point3::origin(),
+                hand_point: Point3::new(
+                    t.hand_point[0] - t.radius,
+                    t.hand_point[1],
+                    t.hand_point[2],
+                ),
                 object_point: s + n * t.radius,
             });
         }

@@ -10,7 +10,7 @@
 //! | five-finger | cube | from above: thumb on the near face, index and middle on the far face |
 //! | five-finger | frying pan | power grasp of the handle: palm on top, fingers wrapped under, thumb along the top toward the pan |
 //! | five-finger | mug | body from above: thumb on the near side, index, middle and ring on the far side, clear of the handle |
-//! | five-finger | teapot | handle pinch: thumb on one side of the handle's outer bar, index and middle on the other |
+//! | five-finger | teapot | hook through the handle loop: palm on the outer bar, index and middle middle phalanges on its inner face, thumb on top; slid in along the handle's side |
 //! | four-finger | apple | fingertip grasp from above: three fingers on the far side, thumb on the near side |
 //! | four-finger | cube | as the five-finger cube grasp |
 //! | gripper | small box, cube | jaws on two opposite faces, from above |
@@ -46,6 +46,17 @@ fn allegro_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
         link: tip,
         hand_point: [ALLEGRO_PAD, 0.0, 0.0],
         radius: ALLEGRO_PAD,
+        object_point,
+    }
+}
+
+/// A point on the palm side of a human phalanx: `z` [m] along the link from its joint,
+/// `r` the phalanx radius [m].
+fn human_phalanx(link: &'static str, r: f64, z: f64, object_point: [f64; 3]) -> PadTarget {
+    PadTarget {
+        link,
+        hand_point: [r, 0.0, z],
+        radius: r,
         object_point,
     }
 }
@@ -120,6 +131,7 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             .concat(),
             approach: [-0.5, 0.0, 1.0],
             slide: [0.0, 0.0, 1.0],
+            turn_rad: 0.25,
         },
         ObjectKind::FryingPan => GraspTemplate {
             palm_normal: [0.0, 0.0, -1.0],
@@ -147,6 +159,7 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             .concat(),
             approach: [0.0, 0.3, 1.0],
             slide: [1.0, 0.0, 0.0],
+            turn_rad: 0.25,
         },
         ObjectKind::Mug => GraspTemplate {
             palm_normal: [0.0, 0.0, -1.0],
@@ -177,17 +190,23 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             .concat(),
             approach: [0.0, -0.5, 1.0],
             slide: [0.0, 0.0, 1.0],
+            turn_rad: 0.25,
         },
+        // Hook grasp through the handle loop: the palm on the outer face of the handle's
+        // outer bar, index and middle through the opening with their middle phalanges on the
+        // bar's inner face, the thumb on top. The hand slides in and out along `+y` (slightly
+        // from above), with the middle finger's middle phalanx opened so it clears the bar,
+        // and without the relaxed turn, which would sweep the fingers through the bar.
         ObjectKind::Teapot => GraspTemplate {
             palm_normal: [1.0, 0.0, 0.0],
-            fingers: [0.0, 0.0, -1.0],
+            fingers: [0.0, -1.0, 0.0],
             preshape: [
-                human_finger("index", 0.8, 0.7, 0.4),
-                human_finger("middle", 0.8, 0.7, 0.4),
-                human_finger("ring", 0.7, 0.7, 0.4),
-                human_finger("little", 0.7, 0.7, 0.4),
+                human_finger("index", 0.9, 1.5, 0.6),
+                human_finger("middle", 0.9, 1.5, 0.6),
+                human_finger("ring", 0.9, 1.5, 0.6),
+                human_finger("little", 0.9, 1.5, 0.6),
                 vec![
-                    ("thumb_cmc_abd", 0.6),
+                    ("thumb_cmc_abd", 0.3),
                     ("thumb_cmc_flex", 0.3),
                     ("thumb_mcp_flex", 0.2),
                     ("thumb_ip_flex", 0.2),
@@ -195,17 +214,15 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             ]
             .concat(),
             targets: vec![
-                human_pad("thumb_tip", [-0.112, 0.03, 0.015]),
-                human_pad("index_tip", [-0.112, -0.03, 0.02]),
-                human_pad("middle_tip", [-0.112, -0.03, 0.0]),
+                human_palm(0.0, 0.065, [-0.125, 0.0, 0.008]),
+                human_phalanx("index_middle", 0.0085, 0.0135, [-0.099, 0.0, 0.027]),
+                human_phalanx("middle_middle", 0.0085, 0.0155, [-0.099, 0.0, 0.008]),
+                human_pad("thumb_tip", [-0.1, 0.0, 0.05]),
             ],
-            open: [
-                human_open(&all, 0.5),
-                vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
-            ]
-            .concat(),
-            approach: [-1.0, 0.0, 0.5],
+            open: vec![("middle_pip_flex", -0.5)],
+            approach: [0.0, -1.0, 0.2],
             slide: [0.0, 0.0, 1.0],
+            turn_rad: 0.0,
         },
         _ => return None,
     };
@@ -269,6 +286,7 @@ fn allegro(object: ObjectKind) -> Option<GraspTemplate> {
         approach,
         // Fingertips on a round object: no free direction; the drift is kept small.
         slide: [0.0, 0.0, 1.0],
+        turn_rad: 0.25,
     })
 }
 
@@ -306,6 +324,7 @@ fn gripper(object: ObjectKind) -> Option<GraspTemplate> {
         open: vec![("finger_joint1", 0.012)],
         approach: [0.0, 0.0, 1.0],
         slide: [0.0, 0.0, 1.0],
+        turn_rad: 0.25,
     })
 }
 
