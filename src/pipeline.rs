@@ -336,19 +336,11 @@ pub fn prepare_barriers(
 /// frame mapped at or before each output frame), and the timewarp.
 pub fn assemble(demo: &Demo, object: &ObjectWarp, hand: &HandPath, name: &str) -> Demo {
     let plan = &object.plan;
-    let (c0, c1) = (plan.segment.start, plan.segment.end);
     let tw = &object.retime.timewarp;
     let path = object.path();
-    let post_shift = plan.post_shift();
     let frames = (0..plan.frames_out())
         .map(|t| {
-            let src = if t < c0 {
-                t
-            } else if t <= plan.t_end_new() {
-                tw.source_frame(t as f64).clamp(c0, c1)
-            } else {
-                (t as i64 - post_shift) as usize
-            };
+            let src = object.source_frame(t);
             Frame {
                 object: path.pose(t),
                 wrist: hand.wrists[t],
@@ -446,19 +438,16 @@ fn min_clearance_mm(hull: &SharedShape, path: &ObjectPath, barriers: &[Barrier])
 
 /// Per-frame rows of `frames.csv` from the stages' outputs.
 fn frame_rows(out: &Demo, object: &ObjectWarp, dc: &[Option<f64>]) -> Vec<FrameRow> {
-    let plan = &object.plan;
-    let (c0, c1, t_end) = (plan.segment.start, plan.segment.end, plan.t_end_new());
-    let tw = &object.retime.timewarp;
+    let in_contact = object.plan.segment.start..=object.plan.t_end_new();
     (0..out.frames.len())
         .map(|t| {
-            let source_frame = if t < c0 {
-                t
-            } else if t <= t_end {
-                tw.source_frame(t as f64).clamp(c0, c1)
-            } else {
-                (t as i64 - plan.post_shift()) as usize
-            };
-            FrameRow::new(out, t, source_frame, (c0..=t_end).contains(&t), dc[t])
+            FrameRow::new(
+                out,
+                t,
+                object.source_frame(t),
+                in_contact.contains(&t),
+                dc[t],
+            )
         })
         .collect()
 }

@@ -84,7 +84,8 @@ pub struct WarpParams {
     /// carried along by the object's motion) or `previous` (that solution unchanged, the
     /// paper's literal reading). With `previous` the hand lags a moving object by up to the
     /// threshold and the object runs into the fingers: on the 14 built-in configs the physics
-    /// pass count was 1 (10 mm) and 3 (3.5 mm) with `previous`, 6 and 4 with `follow_object`.
+    /// pass count was 1 (10 mm) and 3 (3.5 mm) with `previous`, 6 and 4 with `follow_object`
+    /// (measured on one revision, before the teapot grasp was fixed).
     pub warm_start: crate::hand::ik::WarmStart,
     /// Timewarp rule: `chord` (the paper, default) or `speed`.
     pub retime: RetimeMode,

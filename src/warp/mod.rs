@@ -95,6 +95,21 @@ impl ObjectWarp {
         &self.retime.path
     }
 
+    /// The input frame whose correspondences output frame `t` uses: itself before the contact
+    /// segment, `t* = τ⁻¹(t)` (the last input frame mapped at or before `t`) inside it, and the
+    /// frame shifted back by `t'_end − c1` after it.
+    pub fn source_frame(&self, t: usize) -> usize {
+        let plan = &self.plan;
+        let (c0, c1) = (plan.segment.start, plan.segment.end);
+        if t < c0 {
+            t
+        } else if t <= plan.t_end_new() {
+            self.retime.timewarp.source_frame(t as f64).clamp(c0, c1)
+        } else {
+            (t as i64 - plan.post_shift()) as usize
+        }
+    }
+
     /// The object path after stages 1 and 2, at the input frames (positions pushed out,
     /// rotations of stage 1): the warped pose of each input frame before retiming.
     pub fn warped_input(&self) -> ObjectPath {

@@ -498,7 +498,6 @@ pub fn run(
     let plan = &warp.plan;
     let (c0, c1) = (plan.segment.start, plan.segment.end);
     let t_end = plan.t_end_new();
-    let tw = &warp.retime.timewarp;
     let path = warp.path();
     assert_eq!(
         init.len(),
@@ -542,7 +541,7 @@ pub fn run(
         ..Stats::default()
     };
     for t in c0..=t_end {
-        let s = tw.source_frame(t as f64).clamp(c0, c1);
+        let s = warp.source_frame(t);
         let contacts = &resolved[s - c0];
         let object_pose = path.pose(t);
         if t > c0 && (contacts.is_empty() || params.warm_start == WarmStart::FollowObject) {
