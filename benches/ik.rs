@@ -17,8 +17,8 @@ use std::time::Instant;
 
 use dexwarp::hand::ik::{self, IkSolver, Params, ResolvedContact, Solver};
 use dexwarp::hand::{HandPath, baseline};
-use dexwarp::model::config::RetimeMode;
 use dexwarp::warp::ObjectWarp;
+use dexwarp::warp::retime::RetimeMode;
 use nalgebra::{Isometry3, Vector3};
 
 #[path = "../tests/it/support.rs"]

@@ -2,8 +2,10 @@
 //! (issue target: under 5 ms, median, release).
 
 use dexwarp::model::ContactSegment;
-use dexwarp::model::config::{ConfigFile, PushoutMode, RetimeMode, WarpConfig};
+use dexwarp::model::config::{ConfigFile, WarpConfig};
 use dexwarp::warp::barrier::Barrier;
+use dexwarp::warp::barrier::PushoutMode;
+use dexwarp::warp::retime::RetimeMode;
 use dexwarp::warp::{ObjectParams, ObjectPath, WarpPlan, warp_object};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 

@@ -31,7 +31,7 @@ use crate::output::frames::FrameRow;
 use crate::physics;
 use crate::robot::{CollisionShape, Robot};
 use crate::warp::barrier::{Barrier, item_hull_points};
-use crate::warp::{ObjectParams, ObjectPath, ObjectWarp, WarpPlan, warp_object};
+use crate::warp::{ObjectPath, ObjectWarp, WarpPlan, warp_object};
 use crate::{Error, Limits, Result};
 
 /// How the hand is recovered.
@@ -139,7 +139,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let plan = WarpPlan::new(config, &input.positions, segment)?;
     let radius = mesh.bounding_radius();
     let barriers = prepare_barriers(config, scene, radius, &options.limits)?;
-    let params = ObjectParams::from_config(&config.params);
+    let params = config.params.object_params();
 
     // Stages 1-3: spatial warp, barrier push-out, retiming.
     let object = warp_object(&input, &plan, &barriers, radius, &params, &config.source)?;

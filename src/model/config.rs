@@ -12,6 +12,11 @@ use serde::{Deserialize, Serialize};
 
 use super::json::{self, FieldCheck};
 use super::scene::{Role, Scene};
+use crate::hand::ik::WarmStart;
+use crate::warp::ObjectParams;
+use crate::warp::barrier::{self, PushoutMode};
+use crate::warp::retime::{self, RetimeMode};
+use crate::warp::spatial;
 use crate::{Error, Limits, Result};
 
 /// The `format` value of a config file.
@@ -40,28 +45,6 @@ pub struct WaypointJson {
     pub t_new: f64,
 }
 
-/// Barrier push-out mode (METHOD.md, stage 2).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PushoutMode {
-    /// The paper's: convex hull inflated about its centroid, push along the centroid ray.
-    #[default]
-    Paper,
-    /// Exact clearance: the object's bounding ball must clear the barrier's hull.
-    Exact,
-}
-
-/// Timewarp rule of the retiming (METHOD.md, stage 3; see `warp::retime`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum RetimeMode {
-    /// Constant speed along each segment between waypoints (the paper).
-    #[default]
-    Chord,
-    /// Keep the demonstration's speed profile, scaled by the stretch of each step.
-    Speed,
-}
-
 /// Tunable parameters of a warp, with the paper's defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -86,7 +69,7 @@ pub struct WarpParams {
     /// threshold and the object runs into the fingers: on the 14 built-in configs the physics
     /// pass count was 1 (10 mm) and 3 (3.5 mm) with `previous`, 6 and 4 with `follow_object`
     /// (measured on one revision, before the teapot grasp was fixed).
-    pub warm_start: crate::hand::ik::WarmStart,
+    pub warm_start: WarmStart,
     /// Timewarp rule: `chord` (the paper, default) or `speed`.
     pub retime: RetimeMode,
     /// Output frame of the end of the contact segment; by default the input's end shifted by
@@ -104,9 +87,30 @@ impl Default for WarpParams {
             pushout: PushoutMode::Paper,
             pushout_step_m: 0.002,
             penetration_weight: 0.0,
-            warm_start: crate::hand::ik::WarmStart::FollowObject,
+            warm_start: WarmStart::FollowObject,
             retime: RetimeMode::Chord,
             end_t_new: None,
+        }
+    }
+}
+
+impl WarpParams {
+    /// The parameters of the three object stages this config asks for. Stage parameter types
+    /// live in their stages; the config file format maps onto them here, one way.
+    pub fn object_params(&self) -> ObjectParams {
+        ObjectParams {
+            spatial: spatial::Params {
+                alpha_m: self.alpha_m,
+            },
+            barrier: barrier::Params {
+                mode: self.pushout,
+                step_m: self.pushout_step_m,
+                ..barrier::Params::default()
+            },
+            retime: retime::Params {
+                mode: self.retime,
+                ..retime::Params::default()
+            },
         }
     }
 }

@@ -62,24 +62,6 @@ pub struct ObjectParams {
     pub retime: retime::Params,
 }
 
-impl ObjectParams {
-    /// The stage parameters a config asks for.
-    pub fn from_config(p: &crate::model::WarpParams) -> Self {
-        ObjectParams {
-            spatial: spatial::Params { alpha_m: p.alpha_m },
-            barrier: barrier::Params {
-                mode: p.pushout,
-                step_m: p.pushout_step_m,
-                ..barrier::Params::default()
-            },
-            retime: retime::Params {
-                mode: p.retime,
-                ..retime::Params::default()
-            },
-        }
-    }
-}
-
 /// Everything the object stages produce: the plan, each stage's output and stats.
 #[derive(Clone, Debug)]
 pub struct ObjectWarp {

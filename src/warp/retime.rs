@@ -30,7 +30,17 @@ use serde::{Deserialize, Serialize};
 use super::ObjectPath;
 use super::plan::WarpPlan;
 use crate::math::bspline::BSpline;
-pub use crate::model::config::RetimeMode;
+
+/// Timewarp rule of the retiming (stage 3; see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RetimeMode {
+    /// Constant speed along each segment between waypoints (the paper).
+    #[default]
+    Chord,
+    /// Keep the demonstration's speed profile, scaled by the stretch of each step.
+    Speed,
+}
 
 /// Parameters of the retiming.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

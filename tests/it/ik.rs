@@ -4,8 +4,8 @@
 
 use dexwarp::hand::ik::{self, IkSolver, Params, ResolvedContact, Solver, WarmStart};
 use dexwarp::hand::{HandPath, baseline};
-use dexwarp::model::config::RetimeMode;
 use dexwarp::warp::ObjectWarp;
+use dexwarp::warp::retime::RetimeMode;
 use dexwarp::{metrics, pipeline};
 use std::sync::LazyLock;
 

@@ -3,9 +3,11 @@
 
 use std::path::Path;
 
-use dexwarp::model::config::{ConfigFile, PushoutMode, RetimeMode, WarpConfig};
+use dexwarp::model::config::{ConfigFile, WarpConfig};
 use dexwarp::model::{ContactSegment, WarpParams};
 use dexwarp::warp::barrier::Barrier;
+use dexwarp::warp::barrier::PushoutMode;
+use dexwarp::warp::retime::RetimeMode;
 use dexwarp::warp::{ObjectParams, ObjectPath, WarpPlan, warp_object};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -46,10 +48,11 @@ fn base_json() -> serde_json::Value {
 }
 
 fn params(mode: RetimeMode) -> ObjectParams {
-    ObjectParams::from_config(&WarpParams {
+    WarpParams {
         retime: mode,
         ..WarpParams::default()
-    })
+    }
+    .object_params()
 }
 
 fn run(
