@@ -280,6 +280,7 @@ fn run_item(item: &Item, out: &Path, options: &BatchOptions) -> Outcome {
                 threshold_mm: item.threshold_mm,
                 hand: item.hand,
                 solver: item.solver,
+                objective: None,
                 penetration_weight: None,
                 warm_start: None,
                 physics: Some(crate::physics::Params::default()),

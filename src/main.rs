@@ -153,7 +153,11 @@ enum Command {
         /// Skip the physics replay (the report's physics is null).
         #[arg(long)]
         no_physics: bool,
-        /// Weight of the IK's hand-object penetration term (overrides the config; 0 = off).
+        /// IK objective (overrides the config): non-penetrating (default: fingers kept out of
+        /// the object) or paper (the paper's objective as printed).
+        #[arg(long, value_enum, value_name = "OBJ")]
+        objective: Option<ObjectiveArg>,
+        /// Weight of the IK's non-penetration term (overrides the config; 0 = off).
         #[arg(long, value_name = "W")]
         penetration_weight: Option<f64>,
         /// IK warm start (overrides the config): previous (the paper) or follow-object.
@@ -245,6 +249,14 @@ impl From<HandArg> for HandMethod {
             HandArg::Baseline => HandMethod::Baseline,
         }
     }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ObjectiveArg {
+    /// Contacts and barriers, plus fingers kept out of the object.
+    NonPenetrating,
+    /// The paper's objective as printed (contacts and barriers).
+    Paper,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -407,6 +419,7 @@ fn run(cli: Cli) -> Result<()> {
             hand,
             solver,
             no_physics,
+            objective,
             penetration_weight,
             warm_start,
         } => {
@@ -416,6 +429,10 @@ fn run(cli: Cli) -> Result<()> {
                 threshold_mm,
                 hand: hand.into(),
                 solver: solver.into(),
+                objective: objective.map(|o| match o {
+                    ObjectiveArg::NonPenetrating => dexwarp::hand::ik::Objective::NonPenetrating,
+                    ObjectiveArg::Paper => dexwarp::hand::ik::Objective::Paper,
+                }),
                 penetration_weight,
                 warm_start: warm_start.map(|w| match w {
                     WarmStartArg::Previous => dexwarp::hand::ik::WarmStart::Previous,

@@ -64,6 +64,8 @@ pub struct Options {
     pub hand: HandMethod,
     /// IK solver (contact IK only).
     pub solver: Solver,
+    /// IK objective overriding the config's.
+    pub objective: Option<ik::Objective>,
     /// IK penetration weight overriding the config's.
     pub penetration_weight: Option<f64>,
     /// IK warm start overriding the config's.
@@ -163,22 +165,22 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
                 threshold_mm: threshold,
                 margin_m: config.params.margin_m,
                 steepness: config.params.steepness,
+                objective: options.objective.unwrap_or(config.params.objective),
+                penetration_tolerance_mm: config.params.penetration_tolerance_mm,
                 penetration_weight: options
                     .penetration_weight
                     .unwrap_or(config.params.penetration_weight),
                 warm_start: options.warm_start.unwrap_or(config.params.warm_start),
                 ..ik::Params::default()
             };
-            let object_shape = (params.penetration_weight > 0.0)
-                .then(|| object_collision_shape(&demo.object.mesh, mesh))
-                .flatten();
+            let object_sdf = crate::geometry::object_sdf(mesh);
             let (raw, stats) = ik::run(
                 robot,
                 demo,
                 &object,
                 &base,
                 &shapes,
-                object_shape.as_ref(),
+                object_sdf.as_deref(),
                 &params,
             );
             timing.insert("ik".into(), stats.time_s);
@@ -255,6 +257,13 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             mean_iterations: st.mean_iterations,
             max_iterations: st.max_iterations_used,
             min_barrier_clearance_mm: st.min_barrier_clearance_mm,
+            objective: Some(st.objective.as_str().into()),
+            stop_reasons: st
+                .stop_reasons
+                .iter()
+                .map(|(r, n)| (r.as_str().to_string(), *n))
+                .collect(),
+            max_penetration_mm: Some(st.max_penetration_mm),
         });
         for r in &mut frames {
             if let Some(f) = r
@@ -264,6 +273,8 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             {
                 r.ik_converged = Some(f.converged);
                 r.ik_iterations = Some(f.iterations);
+                r.ik_stop = Some(f.stop.as_str().into());
+                r.ik_penetration_mm = Some(f.max_penetration_mm);
             }
         }
     }
@@ -276,18 +287,6 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         hand,
         frames,
     })
-}
-
-/// The object mesh as a collision shape in the object frame (the IK penetration term).
-fn object_collision_shape(path: &Path, mesh: &Mesh) -> Option<CollisionShape> {
-    CollisionShape::new(
-        crate::robot::ShapeKind::Mesh {
-            path: path.to_path_buf(),
-            scale: nalgebra::Vector3::repeat(1.0),
-            mesh: std::sync::Arc::new(mesh.clone()),
-        },
-        nalgebra::Isometry3::identity(),
-    )
 }
 
 /// The barriers a config names, as world-frame collision shapes (the IK barrier term).

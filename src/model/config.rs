@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::json::{self, FieldCheck};
 use super::scene::{Role, Scene};
-use crate::hand::ik::WarmStart;
+use crate::hand::ik::{Objective, WarmStart};
 use crate::warp::ObjectParams;
 use crate::warp::barrier::{self, PushoutMode};
 use crate::warp::retime::{self, RetimeMode};
@@ -61,8 +61,13 @@ pub struct WarpParams {
     pub pushout: PushoutMode,
     /// Step of the barrier push-out along the centroid ray [m]. Default 0.002.
     pub pushout_step_m: f64,
-    /// Weight of the IK's hand-object penetration term (beyond the paper; 0 = off).
+    /// What the IK minimizes: `non_penetrating` (default: the paper's objective plus
+    /// non-penetration of the object) or `paper` (the objective as printed).
+    pub objective: Objective,
+    /// Weight of the IK's non-penetration term (see `hand::ik`; 0 = off). Default 1.
     pub penetration_weight: f64,
+    /// Deepest a finger may sit in the object in a converged IK frame [mm]. Default 1.
+    pub penetration_tolerance_mm: f64,
     /// Warm start of each IK frame: `follow_object` (default: the previous frame's solution
     /// carried along by the object's motion) or `previous` (that solution unchanged, the
     /// paper's literal reading). With `previous` the hand lags a moving object by up to the
@@ -86,7 +91,9 @@ impl Default for WarpParams {
             steepness: 2.0,
             pushout: PushoutMode::Paper,
             pushout_step_m: 0.002,
-            penetration_weight: 0.0,
+            objective: Objective::NonPenetrating,
+            penetration_weight: 1.0,
+            penetration_tolerance_mm: 1.0,
             warm_start: WarmStart::FollowObject,
             retime: RetimeMode::Chord,
             end_t_new: None,

@@ -75,8 +75,18 @@ pub struct Constraints {
 pub struct IkSummary {
     /// Fraction of contact-segment output frames that met the threshold.
     pub converged_fraction: f64,
-    /// Frames that hit the iteration cap, by output frame.
+    /// Frames that did not meet the stop rule, by output frame.
     pub not_converged_frames: Vec<usize>,
+    /// Those frames counted by why their solve ended (`penetration_limited`,
+    /// `barrier_limited`, `iteration_cap`, `local_minimum`, `non_finite`).
+    #[serde(default)]
+    pub stop_reasons: BTreeMap<String, usize>,
+    /// Objective minimized (`non_penetrating` or `paper`).
+    #[serde(default)]
+    pub objective: Option<String>,
+    /// Deepest penetration probe of the IK's hand in the object over the frames [mm].
+    #[serde(default)]
+    pub max_penetration_mm: Option<f64>,
     /// Mean and largest iterations per frame.
     pub mean_iterations: f64,
     pub max_iterations: usize,

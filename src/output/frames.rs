@@ -32,6 +32,10 @@ pub struct FrameRow {
     pub ik_converged: Option<bool>,
     /// IK iterations of the frame.
     pub ik_iterations: Option<usize>,
+    /// IK: why the frame's solve ended (`converged`, `penetration_limited`, ...).
+    pub ik_stop: Option<String>,
+    /// IK: deepest penetration probe in the object at the solution [mm].
+    pub ik_penetration_mm: Option<f64>,
     /// Physics: simulated vs warped object position [mm].
     pub physics_position_error_mm: Option<f64>,
     /// Physics: simulated vs warped object rotation [deg].

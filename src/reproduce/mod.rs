@@ -271,6 +271,7 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
                 threshold_mm: Some(variant.threshold_mm),
                 hand: variant.hand,
                 solver: variant.solver,
+                objective: None,
                 penetration_weight: None,
                 warm_start: None,
                 physics: Some(crate::physics::Params::default()),

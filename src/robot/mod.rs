@@ -7,15 +7,18 @@
 //! - [`kinematics`]: allocation-free [`Robot::forward_kinematics`] and
 //!   [`Robot::point_jacobian`] with the wrist parameterisation `R' = exp([δω]×) R`.
 //! - [`shape`]: collision shapes as parry shapes, and deterministic surface points.
+//! - [`probes`]: penetration probes of the collision geometry against an object's distance.
 //! - [`describe`]: the text of `dexwarp robot URDF`.
 
 pub mod describe;
 pub mod kinematics;
 pub mod model;
+pub mod probes;
 pub mod shape;
 pub mod urdf;
 mod urdf_geometry;
 
 pub use kinematics::{WRIST_DOF, apply_wrist_step};
 pub use model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};
+pub use probes::{Probe, ProbeCluster, Probes};
 pub use shape::{CollisionShape, ShapeKind, SurfaceSampling};

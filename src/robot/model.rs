@@ -59,6 +59,8 @@ pub struct Link {
     pub surface_points: Vec<Point3<f64>>,
     /// Outward unit normals at `surface_points`, link frame (same length).
     pub surface_normals: Vec<Vector3<f64>>,
+    /// Penetration probes of the collision geometry (see [`super::probes`]).
+    pub probes: super::probes::Probes,
 }
 
 /// How a joint moves its child relative to its parent.

@@ -85,6 +85,7 @@ impl Robot {
         for link in &mut self.links {
             link.surface_points.clear();
             link.surface_normals.clear();
+            link.probes = super::probes::Probes::of_shapes(&link.collision);
             for (k, shape) in link.collision.iter().enumerate() {
                 points.clear();
                 normals.clear();
@@ -468,6 +469,7 @@ impl Loader<'_> {
                 collision,
                 surface_points: Vec::new(),
                 surface_normals: Vec::new(),
+                probes: Default::default(),
             });
         }
         Ok(links)

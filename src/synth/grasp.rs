@@ -231,7 +231,6 @@ pub fn solve(
     robot: &Robot,
     template: &GraspTemplate,
     object: &ObjectGeometry,
-    object_shape: &CollisionShape,
     object_pose: &Isometry3<f64>,
     barriers: &[CollisionShape],
     params: &GraspParams,
@@ -260,16 +259,17 @@ pub fn solve(
         threshold_mm: params.threshold_mm,
         max_iterations: params.max_iterations,
         barrier_weight: 0.0,
+        objective: crate::hand::ik::Objective::Paper,
         ..IkParams::default()
     };
     let careful = IkParams {
         margin_m: 0.01,
         barrier_weight: 0.1,
-        penetration_weight: 1.0,
+        objective: crate::hand::ik::Objective::NonPenetrating,
         ..plain.clone()
     };
-    let mut solver = IkSolver::new(robot, barriers, Some(object_shape), plain);
-    let mut fine = IkSolver::new(robot, barriers, Some(object_shape), careful);
+    let mut solver = IkSolver::new(robot, barriers, Some(&object.sdf), plain);
+    let mut fine = IkSolver::new(robot, barriers, Some(&object.sdf), careful);
     let mut best: Option<(f64, Isometry3<f64>, Vec<f64>, crate::hand::ik::FrameResult)> = None;
     for (ax, ay) in TURNS {
         let turn = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), ax)
@@ -444,15 +444,6 @@ mod tests {
             for object in objects {
                 let mesh = object.mesh();
                 let geo = ObjectGeometry::new(mesh.clone()).unwrap();
-                let shape = CollisionShape::new(
-                    ShapeKind::Mesh {
-                        path: "x.obj".into(),
-                        scale: Vector3::repeat(1.0),
-                        mesh: std::sync::Arc::new(mesh),
-                    },
-                    Isometry3::identity(),
-                )
-                .unwrap();
                 let pose = Isometry3::translation(0.0, 0.0, 0.9 - geo.min_z);
                 let table = CollisionShape::new(
                     ShapeKind::Box {
@@ -467,7 +458,6 @@ mod tests {
                     &robot,
                     &t,
                     &geo,
-                    &shape,
                     &pose,
                     std::slice::from_ref(&table),
                     &GraspParams::default(),

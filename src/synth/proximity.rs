@@ -1,10 +1,9 @@
 //! Hand-object proximity: the object's signed distance and the hand's penetration into it.
 //!
 //! The objects of [`super::objects`] are unions of closed, outward-wound parts that overlap
-//! where a handle meets a body. A point is inside the object when it is inside any part
-//! (parry's pseudo-normal test on each part, built with `TriMeshFlags::ORIENTED`); its depth
-//! is the largest distance to the surface of a part that contains it. Outside, the distance
-//! is the distance to the whole mesh.
+//! where a handle meets a body; their signed distance is the shared one of
+//! [`crate::geometry::sdf`] (inside any part: minus the largest distance to the surface of a
+//! part that contains it; outside: the distance to the whole mesh).
 //!
 //! The penetration of a hand link is measured on its collision shapes (capsules, boxes,
 //! spheres, cylinders) against the object mesh with two parry queries, the larger wins:
@@ -17,102 +16,42 @@
 //! Both are signed: a positive depth is an overlap in metres, zero means apart or touching.
 
 use nalgebra::{Isometry3, Point3, Vector3};
-use rapier3d_f64::parry::query::{self, PointQuery};
-use rapier3d_f64::parry::shape::{TriMesh, TriMeshFlags};
+use rapier3d_f64::parry::query;
+
+use std::sync::Arc;
 
 use crate::geometry::Mesh;
-use crate::math::convert::{from_point, to_point, to_pose};
+use crate::geometry::sdf::{ObjectSdf, SurfacePoint, object_sdf};
+use crate::math::convert::to_pose;
 use crate::robot::{CollisionShape, LinkId, Robot, ShapeKind};
 
-/// An object mesh prepared for distance queries, in the object frame.
-#[derive(Clone)]
+/// An object mesh prepared for distance queries, in the object frame: the shared signed
+/// distance field of [`crate::geometry::sdf`] (exact queries here, the grid in the IK).
+#[derive(Clone, Debug)]
 pub struct ObjectGeometry {
     /// The mesh.
     pub mesh: Mesh,
-    /// The whole mesh (closest points).
-    whole: TriMesh,
-    /// Each closed part, oriented (inside tests).
-    parts: Vec<TriMesh>,
+    /// The object's signed distance field.
+    pub sdf: Arc<ObjectSdf>,
     /// Lowest vertex height in the object frame [m] (negative: below the origin).
     pub min_z: f64,
-}
-
-impl std::fmt::Debug for ObjectGeometry {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("ObjectGeometry")
-            .field("vertices", &self.mesh.vertices.len())
-            .field("parts", &self.parts.len())
-            .field("min_z", &self.min_z)
-            .finish_non_exhaustive()
-    }
-}
-
-/// Signed distance of a point to the object surface and the closest surface point.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SurfacePoint {
-    /// Distance [m], negative inside the object.
-    pub signed_distance: f64,
-    /// Closest point on the surface, object frame.
-    pub point: Point3<f64>,
 }
 
 impl ObjectGeometry {
     /// Prepares `mesh`; `None` when it has no triangles.
     pub fn new(mesh: Mesh) -> Option<ObjectGeometry> {
-        let whole = mesh.to_trimesh(false)?;
-        let parts = mesh
-            .connected_parts()
-            .iter()
-            .filter_map(|p| {
-                let oriented = p.is_closed_and_consistently_wound();
-                let vertices = p.vertices.iter().map(to_point).collect();
-                let flags = if oriented {
-                    TriMeshFlags::ORIENTED
-                } else {
-                    TriMeshFlags::empty()
-                };
-                TriMesh::with_flags(vertices, p.triangles.clone(), flags).ok()
-            })
-            .collect();
+        let sdf = object_sdf(&mesh)?;
         let min_z = mesh
             .vertices
             .iter()
             .map(|v| v.z)
             .fold(f64::INFINITY, f64::min);
-        Some(ObjectGeometry {
-            mesh,
-            whole,
-            parts,
-            min_z,
-        })
+        Some(ObjectGeometry { mesh, sdf, min_z })
     }
 
-    /// Signed distance and closest surface point of the object-frame point `p`.
+    /// Signed distance and closest surface point of the object-frame point `p` (exact).
     pub fn surface_point(&self, p: &Point3<f64>) -> SurfacePoint {
-        let gp = to_point(p);
-        let mut depth: Option<(f64, Point3<f64>)> = None;
-        for part in &self.parts {
-            let proj = part.project_local_point(gp, false);
-            if proj.is_inside {
-                let q = from_point(proj.point);
-                let d = (q - p).norm();
-                if depth.is_none_or(|(best, _)| d > best) {
-                    depth = Some((d, q));
-                }
-            }
-        }
-        if let Some((d, q)) = depth {
-            return SurfacePoint {
-                signed_distance: -d,
-                point: q,
-            };
-        }
-        let proj = self.whole.project_local_point(gp, false);
-        let q = from_point(proj.point);
-        SurfacePoint {
-            signed_distance: (q - p).norm(),
-            point: q,
-        }
+        self.sdf.exact().surface_point(p)
     }
 
     /// True when the object-frame point `p` is inside the object.
@@ -156,7 +95,7 @@ pub fn shape_depth(
     let mut depth: f64 = 0.0;
     if let Ok(Some(c)) = query::contact(
         &to_pose(object_pose),
-        &object.whole,
+        object.sdf.exact().whole(),
         &to_pose(&shape_pose),
         shape.shape.as_ref(),
         0.0,

@@ -5,33 +5,42 @@ use nalgebra::{Isometry3, Vector3};
 use super::*;
 
 impl IkSolver<'_> {
-    /// The paper's Adam (see the module docs). Returns (converged, iterations, eval).
+    /// The paper's Adam (see the module docs). Returns (converged, iterations, eval,
+    /// whether the iteration cap ended it). Adam's steps may raise `F`: the best iterate
+    /// visited is what it returns, so a frame never ends worse than its warm start.
     pub(super) fn solve_adam(
         &mut self,
         object_pose: &Isometry3<f64>,
         contacts: &[ResolvedContact],
         wrist: &mut Isometry3<f64>,
         q: &mut [f64],
-    ) -> (bool, usize, Eval) {
+    ) -> (bool, usize, Eval, bool) {
         const B1: f64 = 0.9;
         const B2: f64 = 0.999;
         const EPS: f64 = 1e-8;
         let nc = contacts.len();
         let cap = self.params.iteration_cap();
-        let threshold = self.threshold_m();
         let lr = self.params.learning_rate;
         let robot = self.geo.robot;
         self.adam_m.fill(0.0);
         self.adam_v.fill(0.0);
         let (mut b1t, mut b2t) = (1.0, 1.0);
         let mut iterations = 0;
+        let mut best: Option<(f64, Isometry3<f64>, Eval)> = None;
         loop {
             let cur = self.evaluate(false, object_pose, contacts, wrist, q);
-            if cur.mean_m(nc) < threshold {
-                return (true, iterations, cur);
+            if self.meets_stop_rule(&cur, nc) {
+                return (true, iterations, cur, false);
+            }
+            if best.as_ref().is_none_or(|(f, _, _)| cur.total(nc) < *f) {
+                best = Some((cur.total(nc), *wrist, cur));
+                self.q_trial.copy_from_slice(q);
             }
             if iterations >= cap {
-                return (false, iterations, cur);
+                let (_, w, e) = best.expect("set above");
+                *wrist = w;
+                q.copy_from_slice(&self.q_trial);
+                return (false, iterations, e, true);
             }
             self.gradient(object_pose, contacts);
             iterations += 1;
@@ -82,7 +91,7 @@ impl IkSolver<'_> {
             }
         }
         let p = &self.params;
-        if p.barrier_weight > 0.0 {
+        if p.barrier_weight > 0.0 && p.objective == Objective::Paper {
             let (m, n, w) = (p.margin_m, p.steepness, p.barrier_weight);
             for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
                 geo.near_points(poses, shape, obstacle, m, |l, pt, d, grad| {
@@ -94,15 +103,28 @@ impl IkSolver<'_> {
                     }
                 });
             }
+        } else if p.barrier_weight > 0.0 {
+            // d(w ((c − SDF)/s)²) = −2w (c − SDF)/s² ∇SDF.
+            let (c, w) = (p.barrier_clearance_mm * 1e-3, p.barrier_weight);
+            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
+                geo.near_points(poses, shape, obstacle, c, |l, pt, d, grad| {
+                    let coeff = -2.0 * w * (c - d) / (DEPTH_SCALE_M * DEPTH_SCALE_M);
+                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                    for &k in geo.cols(l) {
+                        g[k] += coeff * grad.dot(&jac[k]);
+                    }
+                });
+            }
         }
-        if let (Some(shape), Some(obstacle)) = (geo.object, &self.object_obstacle) {
-            let (m, w) = (p.margin_m, p.penetration_weight);
-            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
-                // d(w (−d/m)²) = 2w d/m² ∇d.
-                let coeff = 2.0 * w * d / (m * m);
-                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
-                for &a in geo.cols(l) {
-                    g[a] += coeff * grad.dot(&jac[a]);
+        if let (Some(sdf), Some(object_from_world)) = (geo.object, &self.object_from_world) {
+            let a = 0.5 * p.penetration_tolerance_mm * 1e-3;
+            let w = p.penetration_weight;
+            geo.active_probes(sdf, poses, object_from_world, a, |l, c, depth, grad| {
+                // d(w ((depth − a)/s)²) = −2w (depth − a)/s² ∇φ.
+                let coeff = -2.0 * w * (depth - a) / (DEPTH_SCALE_M * DEPTH_SCALE_M);
+                robot.world_point_jacobian(poses, LinkId(l as u32), c, jac);
+                for &k in geo.cols(l) {
+                    g[k] += coeff * grad.dot(&jac[k]);
                 }
             });
         }

@@ -1,9 +1,11 @@
-//! Obstacles of the IK: barrier and object shapes in the world, with the culling that keeps the
-//! barrier and penetration terms cheap (bounding spheres per link, AABBs per obstacle).
+//! Obstacles of the IK: barrier shapes in the world and the object's signed distance field,
+//! with the culling that keeps the barrier and penetration terms cheap (bounding spheres per
+//! link, AABBs per barrier, probe clusters against the object field).
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use rapier3d_f64::parry::math::Pose;
 
+use crate::geometry::ObjectSdf;
 use crate::math::convert::{from_point, from_vec, to_point, to_pose};
 use crate::robot::{CollisionShape, LinkId, Robot, WRIST_DOF};
 
@@ -65,7 +67,9 @@ pub(super) struct Geometry<'a> {
     pub(super) robot: &'a Robot,
     pub(super) barriers: &'a [CollisionShape],
     pub(super) barrier_obstacles: Vec<Obstacle>,
-    pub(super) object: Option<&'a CollisionShape>,
+    pub(super) object: Option<&'a ObjectSdf>,
+    /// Per link: bounding sphere of its penetration probes (link frame); radius < 0 when none.
+    pub(super) probe_spheres: Vec<(Point3<f64>, f64)>,
     /// Per link: bounding sphere of its surface points (link frame); radius < 0 when none.
     pub(super) spheres: Vec<(Point3<f64>, f64)>,
     /// Per link: range into `col_idx`.
@@ -78,7 +82,7 @@ impl<'a> Geometry<'a> {
     pub(super) fn new(
         robot: &'a Robot,
         barriers: &'a [CollisionShape],
-        object: Option<&'a CollisionShape>,
+        object: Option<&'a ObjectSdf>,
     ) -> Self {
         let mut spheres = Vec::with_capacity(robot.link_count());
         let mut col_range = Vec::with_capacity(robot.link_count());
@@ -118,11 +122,17 @@ impl<'a> Geometry<'a> {
             .iter()
             .map(|b| Obstacle::new(b, &b.shape_pose))
             .collect();
+        let probe_spheres = robot
+            .links()
+            .iter()
+            .map(|l| l.probes.bounding_sphere())
+            .collect();
         Geometry {
             robot,
             barriers,
             barrier_obstacles,
             object,
+            probe_spheres,
             spheres,
             col_range,
             col_idx,
@@ -194,5 +204,43 @@ impl<'a> Geometry<'a> {
             }
         }
         Some(best)
+    }
+
+    /// Calls `f(link, c, depth, ∇φ)` for every penetration probe deeper than `active` [m] in
+    /// the object (`object_from_world` maps world to object frame): `c` is the probe centre
+    /// (world), `depth = r − φ(c)`, `∇φ` the field's gradient in the world frame.
+    pub(super) fn active_probes(
+        &self,
+        sdf: &ObjectSdf,
+        poses: &[Isometry3<f64>],
+        object_from_world: &Isometry3<f64>,
+        active: f64,
+        mut f: impl FnMut(usize, &Point3<f64>, f64, &Vector3<f64>),
+    ) {
+        let world_from_object = object_from_world.inverse();
+        for (l, link) in self.robot.links().iter().enumerate() {
+            let (c, r) = self.probe_spheres[l];
+            if r < 0.0 {
+                continue;
+            }
+            let to_object = object_from_world * poses[l];
+            if r - sdf.distance(&(to_object * c)) <= active {
+                continue;
+            }
+            for cluster in &link.probes.clusters {
+                if cluster.radius - sdf.distance(&(to_object * cluster.center)) <= active {
+                    continue;
+                }
+                for p in link.probes.of(cluster) {
+                    let local = to_object * p.point;
+                    let (phi, grad) = sdf.distance_and_gradient(&local);
+                    let depth = p.radius - phi;
+                    if depth > active {
+                        let world = poses[l] * p.point;
+                        f(l, &world, depth, &(world_from_object.rotation * grad));
+                    }
+                }
+            }
+        }
     }
 }

@@ -59,7 +59,7 @@ impl IkSolver<'_> {
             }
         }
         let p = &self.params;
-        if p.barrier_weight > 0.0 {
+        if p.barrier_weight > 0.0 && p.objective == Objective::Paper {
             let (m, half) = (p.margin_m, p.steepness / 2.0);
             let sw = p.barrier_weight.sqrt();
             for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
@@ -75,16 +75,32 @@ impl IkSolver<'_> {
                     Self::add_row(h, g, n, cols, row, e);
                 });
             }
+        } else if p.barrier_weight > 0.0 {
+            // The clearance hinge: e = sw (c − SDF)/s, ∂e/∂θ = −(sw/s) ∇SDFᵀ J.
+            let c = p.barrier_clearance_mm * 1e-3;
+            let sw = p.barrier_weight.sqrt();
+            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
+                geo.near_points(poses, shape, obstacle, c, |l, pt, d, grad| {
+                    let e = sw * (c - d) / DEPTH_SCALE_M;
+                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                    let cols = geo.cols(l);
+                    for &a in cols {
+                        row[a] = -sw / DEPTH_SCALE_M * grad.dot(&jac[a]);
+                    }
+                    Self::add_row(h, g, n, cols, row, e);
+                });
+            }
         }
-        if let (Some(shape), Some(obstacle)) = (geo.object, &self.object_obstacle) {
-            let m = p.margin_m;
+        if let (Some(sdf), Some(object_from_world)) = (geo.object, &self.object_from_world) {
+            let a = 0.5 * p.penetration_tolerance_mm * 1e-3;
             let sw = p.penetration_weight.sqrt();
-            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
-                let e = sw * (-d) / m;
-                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+            geo.active_probes(sdf, poses, object_from_world, a, |l, c, depth, grad| {
+                // e = sw (depth − a)/s, depth = r − φ(c): ∂e/∂θ = −(sw/s) ∇φᵀ J_c.
+                let e = sw * (depth - a) / DEPTH_SCALE_M;
+                robot.world_point_jacobian(poses, LinkId(l as u32), c, jac);
                 let cols = geo.cols(l);
-                for &a in cols {
-                    row[a] = -sw / m * grad.dot(&jac[a]);
+                for &k in cols {
+                    row[k] = -sw / DEPTH_SCALE_M * grad.dot(&jac[k]);
                 }
                 Self::add_row(h, g, n, cols, row, e);
             });
@@ -114,18 +130,18 @@ impl IkSolver<'_> {
         }
     }
 
-    /// Levenberg-Marquardt (see the module docs). Returns (converged, iterations, eval).
+    /// Levenberg-Marquardt (see the module docs). Returns (converged, iterations, eval,
+    /// whether the iteration cap ended it).
     pub(super) fn solve_lm(
         &mut self,
         object_pose: &Isometry3<f64>,
         contacts: &[ResolvedContact],
         wrist: &mut Isometry3<f64>,
         q: &mut [f64],
-    ) -> (bool, usize, Eval) {
+    ) -> (bool, usize, Eval, bool) {
         let n = self.n;
         let nc = contacts.len();
         let cap = self.params.iteration_cap();
-        let threshold = self.threshold_m();
         let robot = self.geo.robot;
         let mut cur = self.evaluate(false, object_pose, contacts, wrist, q);
         let mut iterations = 0;
@@ -133,11 +149,11 @@ impl IkSolver<'_> {
         let mut stale = true;
         let mut stalled = false;
         loop {
-            if cur.mean_m(nc) < threshold {
-                return (true, iterations, cur);
+            if self.meets_stop_rule(&cur, nc) {
+                return (true, iterations, cur, false);
             }
             if iterations >= cap || mu > MU_MAX {
-                return (false, iterations, cur);
+                return (false, iterations, cur, iterations >= cap);
             }
             if stale {
                 self.linearize(object_pose, contacts, wrist, q);
@@ -226,9 +242,9 @@ impl IkSolver<'_> {
                 mu *= nu;
                 nu *= 2.0;
             }
-            if (stalled || self.step.amax() < STALL_STEP) && cur.mean_m(nc) >= threshold {
-                // No progress without meeting the threshold: a local minimum.
-                return (false, iterations, cur);
+            if (stalled || self.step.amax() < STALL_STEP) && !self.meets_stop_rule(&cur, nc) {
+                // No progress without meeting the stop rule: a local minimum.
+                return (false, iterations, cur, false);
             }
         }
     }

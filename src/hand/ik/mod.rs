@@ -7,19 +7,34 @@
 //! ```text
 //! F(θ) = (1/N) Σ_i |FK_i(θ)·h_i − O(t)·o_i|                       contact distance [m]
 //!      + w_B Σ_b Σ_{p ∈ P(θ)} max(0, 1 − SDF(p, b)/m)^n             barrier term
-//!      + w_P Σ_{p ∈ P(θ)} (max(0, −SDF(p, object))/m)²              penetration (not in the paper)
+//!      + w_P Σ_{c ∈ C(θ)} (max(0, r_c − φ(c) − a) / 1 mm)²           non-penetration (default)
 //! ```
 //!
-//! `P(θ)` are the links' `surface_points` through forward kinematics, SDFs come from parry
-//! (negative inside). `w_B = 1` is the paper's objective as printed; `w_P = 0` (default)
-//! switches the penetration term off. Only points that can matter are evaluated: a link's
-//! bounding sphere is tested against each obstacle's bounding sphere, then each point
-//! against the obstacle's AABB inflated by the reach (`m` for barriers, 0 for the object).
+//! `P(θ)` are the links' `surface_points` through forward kinematics and barrier SDFs come
+//! from parry (negative inside); `w_B = 1` is the paper's objective as printed. The
+//! non-penetration term is ours (the default [`Objective::NonPenetrating`]): `C(θ)` are the
+//! links' penetration probes (balls `B(c, r)` inside the collision geometry, see
+//! [`crate::robot::probes`]), `φ` is the object's signed distance field
+//! ([`crate::geometry::sdf`], right for unions of overlapping parts), `r − φ(c)` the probe's
+//! depth in the object, and the hinge starts at `a = tolerance / 2`, so fingers may rest on
+//! or slightly in the surface (the demonstrations' own fingers sit up to about 1 mm in) but
+//! are pushed out before they reach the tolerance. Why: correspondences are cleaned by a
+//! distance threshold (each hand point a few millimetres off the surface is paired with its
+//! nearest surface point), so every pair points into the object and fitting the pairs
+//! exactly presses the fingers in; the term makes "closer to the contacts" stop at the
+//! surface. [`Objective::Paper`] drops it: the paper's objective as printed, for
+//! reproducing its tables. Only probes that can matter are evaluated: a link's probe sphere,
+//! then each cluster's, is tested against `φ` (1-Lipschitz) before its probes are.
 //!
-//! **Stop rule** (both solvers): stop as soon as the mean contact distance is below
-//! `threshold_mm` (checked before every iteration, so a warm start that already meets it
-//! costs no iteration). A frame that reaches the cap, or whose step vanishes first, is
-//! reported `converged = false` with its residual; it is never silently accepted.
+//! **Stop rule** (both solvers): a frame is *converged* when the mean contact distance is
+//! below `threshold_mm` and, with the non-penetration objective, no probe is deeper than
+//! [`Params::penetration_tolerance_mm`]; it is checked before every iteration, so a warm
+//! start that already meets it costs no iteration. Any other ending is reported
+//! `converged = false` with a [`StopReason`]: `penetration_limited` (the contacts cannot be
+//! reached without pressing in, or the fingers cannot be got out), `barrier_limited` (the
+//! barrier term holds the hand off), `iteration_cap` or `local_minimum`. The returned
+//! configuration is never worse (higher `F`) than the warm start: LM accepts only decreasing
+//! steps, and Adam returns the best iterate it visited.
 //!
 //! **`lm`** (default): Levenberg-Marquardt on the same `F`. The sum of distances is handled
 //! by iteratively reweighted least squares: at the linearization point each contact becomes
@@ -28,7 +43,8 @@
 //! objective, not the squared distances: matched contacts stay matched while outliers
 //! (e.g. permuted correspondences) pull with bounded force. Barrier points are residuals
 //! `sqrt(w_B)·g^(n/2)`, `g = max(0, 1 − SDF/m)`, with gradient
-//! `−sqrt(w_B)(n/2) g^(n/2−1)/m · ∇SDFᵀ J`; penetration points `sqrt(w_P)·depth/m`. A
+//! `−sqrt(w_B)(n/2) g^(n/2−1)/m · ∇SDFᵀ J`; active probes `sqrt(w_P)(depth − a)/1 mm` with
+//! gradient `−sqrt(w_P)/1 mm · ∇φᵀ J`. A
 //! proximal term `ρ |D(θ − θ₀)|²` (`ρ = regularization`, `D` = 1/0.1 m on the wrist
 //! translation, 1 on rotations [rad] and joints) pulls toward the warm start so joints the
 //! contacts do not determine stay put. The normal equations (6 + dof unknowns) use only the
@@ -41,7 +57,8 @@
 //! the hand cannot clear while keeping its contacts.
 //!
 //! **`adam`**: the paper's solver, faithful: Adam (β = 0.9, 0.999, ε = 1e-8, learning rate
-//! 0.01, moments reset every frame) on exactly `F` (no proximal term), with the parameter
+//! 0.01, moments reset every frame) on exactly `F` (no proximal term; with the paper's
+//! objective, exactly the printed one), with the parameter
 //! vector wrist translation [m], wrist rotation (local steps `R ← exp(δω)·R`, moments on the
 //! tangent vector) [rad], joints [rad], clamped to the limits after every step.
 //!
@@ -52,7 +69,7 @@ mod adam;
 mod geometry;
 mod lm;
 
-use geometry::{Geometry, Obstacle};
+use geometry::Geometry;
 
 use std::fmt;
 use std::str::FromStr;
@@ -62,10 +79,13 @@ use nalgebra::{Cholesky, DMatrix, DVector, Isometry3, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::HandPath;
+use crate::geometry::ObjectSdf;
 use crate::model::{Contact, Demo};
 use crate::robot::{CollisionShape, LinkId, Robot, WRIST_DOF, apply_wrist_step};
 use crate::warp::ObjectWarp;
 
+/// Length scale of the non-penetration residual [m] (1 mm).
+const DEPTH_SCALE_M: f64 = 1e-3;
 /// Floor of the contact distance in the IRLS weights [m] (0.1 mm).
 const CONTACT_FLOOR_M: f64 = 1e-4;
 /// Length scale of the wrist translation in the proximal term [m].
@@ -75,7 +95,7 @@ const MU_INIT: f64 = 1e-3;
 /// Damping beyond which LM gives up (the model no longer predicts any decrease).
 const MU_MAX: f64 = 1e12;
 /// LM stops (not converged) when an accepted step lowers `F` by less than this fraction...
-const STALL_DECREASE: f64 = 1e-6;
+const STALL_DECREASE: f64 = 1e-5;
 /// ... or when its largest component is below this [m or rad].
 const STALL_STEP: f64 = 1e-10;
 
@@ -130,6 +150,76 @@ impl FromStr for Solver {
     }
 }
 
+/// What the IK minimizes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Objective {
+    /// Contacts and barriers as in the paper, plus non-penetration of the object (default).
+    #[default]
+    NonPenetrating,
+    /// The paper's objective as printed: contacts and barriers only.
+    Paper,
+}
+
+impl Objective {
+    /// The name used in configs, reports and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Objective::NonPenetrating => "non_penetrating",
+            Objective::Paper => "paper",
+        }
+    }
+}
+
+impl FromStr for Objective {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "non_penetrating" => Ok(Objective::NonPenetrating),
+            "paper" => Ok(Objective::Paper),
+            _ => Err(format!(
+                "unknown IK objective {s:?}; expected \"non_penetrating\" or \"paper\""
+            )),
+        }
+    }
+}
+
+/// Why a frame's solve ended.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// Threshold met (and no probe deeper than the tolerance).
+    #[default]
+    Converged,
+    /// The contacts cannot be reached without pressing into the object, or the fingers
+    /// cannot be brought out of it.
+    PenetrationLimited,
+    /// The barrier term holds the hand off its contacts.
+    BarrierLimited,
+    /// The iteration cap was reached.
+    IterationCap,
+    /// No descent direction left (a local minimum above the threshold).
+    LocalMinimum,
+    /// The solver produced a non-finite configuration; the warm start was kept.
+    NonFinite,
+}
+
+impl StopReason {
+    /// The name used in reports and `frames.csv`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StopReason::Converged => "converged",
+            StopReason::PenetrationLimited => "penetration_limited",
+            StopReason::BarrierLimited => "barrier_limited",
+            StopReason::IterationCap => "iteration_cap",
+            StopReason::LocalMinimum => "local_minimum",
+            StopReason::NonFinite => "non_finite",
+        }
+    }
+}
+
 /// Where each frame's solve starts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -159,8 +249,20 @@ pub struct Params {
     pub steepness: f64,
     /// Weight of the barrier sum (1 = the paper's objective as printed, 0 = off). Default 1.
     pub barrier_weight: f64,
-    /// Weight of the hand-object penetration term (beyond the paper; 0 = off). Default 0.
+    /// Non-penetrating objective only: the clearance the hand keeps from barriers [mm]; its
+    /// barrier term is the hinge `w_B Σ_p (max(0, c − SDF(p, b))/1 mm)²` instead of the
+    /// paper's potential, which reaches `m` = 5 cm out and, once a frame cannot meet the
+    /// threshold, outweighs the contacts a hundredfold and pulls the hand off the object.
+    /// Default 5.
+    pub barrier_clearance_mm: f64,
+    /// What is minimized. Default `non_penetrating`.
+    pub objective: Objective,
+    /// Weight `w_P` of the non-penetration term (dimensionless, residuals in mm; see the
+    /// module docs). Default 1.
     pub penetration_weight: f64,
+    /// Deepest a penetration probe may sit in the object in a converged frame [mm]; the
+    /// hinge starts at half of it. Default 1.
+    pub penetration_tolerance_mm: f64,
     /// Adam learning rate [m or rad per step]. Default 0.01 (the paper).
     pub learning_rate: f64,
     /// LM only: weight `ρ` of the proximal term toward the warm start (dimensionless, see
@@ -179,7 +281,10 @@ impl Default for Params {
             margin_m: 0.05,
             steepness: 2.0,
             barrier_weight: 1.0,
-            penetration_weight: 0.0,
+            barrier_clearance_mm: 5.0,
+            objective: Objective::NonPenetrating,
+            penetration_weight: 1.0,
+            penetration_tolerance_mm: 1.0,
             learning_rate: 0.01,
             regularization: 1e-4,
             warm_start: WarmStart::Previous,
@@ -188,6 +293,11 @@ impl Default for Params {
 }
 
 impl Params {
+    /// The non-penetration term is in effect (objective and weight).
+    pub fn non_penetrating(&self) -> bool {
+        self.objective == Objective::NonPenetrating && self.penetration_weight > 0.0
+    }
+
     /// The iteration cap in effect (resolves `max_iterations = 0`).
     pub fn iteration_cap(&self) -> usize {
         if self.max_iterations == 0 {
@@ -241,6 +351,11 @@ pub struct FrameResult {
     pub min_barrier_clearance_mm: Option<f64>,
     /// The solver produced a non-finite configuration; the warm start was kept.
     pub non_finite: bool,
+    /// Why the solve ended.
+    pub stop: StopReason,
+    /// Deepest penetration probe in the object at the solution [mm] (0 when none is in, or
+    /// without an object field).
+    pub max_penetration_mm: f64,
 }
 
 /// Values of the objective's parts at one configuration.
@@ -254,6 +369,8 @@ struct Eval {
     barrier: f64,
     /// w_P Σ Γ_P.
     penetration: f64,
+    /// Deepest active probe [m] (0 when none is deeper than the hinge start).
+    max_depth_m: f64,
     /// ρ |D(θ − θ₀)|² (LM only).
     proximal: f64,
 }
@@ -290,17 +407,18 @@ pub struct IkSolver<'a> {
     q_trial: Vec<f64>,
     adam_m: Vec<f64>,
     adam_v: Vec<f64>,
-    /// The object obstacle of the current frame (world), when the penetration term is on.
-    object_obstacle: Option<Obstacle>,
+    /// Object frame from world of the current frame, when the non-penetration term is on.
+    object_from_world: Option<Isometry3<f64>>,
 }
 
 impl<'a> IkSolver<'a> {
     /// A solver for `robot` among `barriers` (world-frame shapes). `object` is the object's
-    /// collision shape in the object frame, used by the penetration term only.
+    /// signed distance field, used by the non-penetration term and to report each frame's
+    /// deepest probe.
     pub fn new(
         robot: &'a Robot,
         barriers: &'a [CollisionShape],
-        object: Option<&'a CollisionShape>,
+        object: Option<&'a ObjectSdf>,
         params: Params,
     ) -> Self {
         let n = WRIST_DOF + robot.dof();
@@ -323,7 +441,7 @@ impl<'a> IkSolver<'a> {
             q_trial: vec![0.0; robot.dof()],
             adam_m: vec![0.0; n],
             adam_v: vec![0.0; n],
-            object_obstacle: None,
+            object_from_world: None,
         }
     }
 
@@ -345,44 +463,78 @@ impl<'a> IkSolver<'a> {
         assert_eq!(q.len(), self.geo.robot.dof(), "q has the wrong length");
         self.wrist0 = *wrist;
         self.q0.copy_from_slice(q);
-        self.object_obstacle = match self.geo.object {
-            Some(shape) if self.params.penetration_weight > 0.0 => {
-                Some(Obstacle::new(shape, &(object_pose * shape.shape_pose)))
-            }
+        self.object_from_world = match self.geo.object {
+            Some(_) if self.params.non_penetrating() => Some(object_pose.inverse()),
             _ => None,
         };
-        let (converged, iterations, eval) = match self.params.solver {
+        let (converged, iterations, eval, capped) = match self.params.solver {
             Solver::Lm => self.solve_lm(object_pose, contacts, wrist, q),
             Solver::Adam => self.solve_adam(object_pose, contacts, wrist, q),
         };
         let finite = wrist.translation.vector.iter().all(|v| v.is_finite())
             && wrist.rotation.coords.iter().all(|v| v.is_finite())
             && q.iter().all(|v| v.is_finite());
-        let (converged, eval) = if finite {
-            (converged, eval)
-        } else {
+        let n = contacts.len();
+        let (stop, eval) = if !finite {
             // NaN or infinity is a reported event, never the output.
             *wrist = self.wrist0;
             q.copy_from_slice(&self.q0);
             let e = self.evaluate(false, object_pose, contacts, wrist, q);
-            (false, e)
+            (StopReason::NonFinite, e)
+        } else if converged {
+            (StopReason::Converged, eval)
+        } else if self.object_from_world.is_some()
+            && (eval.penetration > 0.0 || eval.max_depth_m > self.tolerance_m())
+        {
+            (StopReason::PenetrationLimited, eval)
+        } else if eval.barrier > 1e-9 {
+            (StopReason::BarrierLimited, eval)
+        } else if capped {
+            (StopReason::IterationCap, eval)
+        } else {
+            (StopReason::LocalMinimum, eval)
         };
+        let need_poses = !self.geo.barriers.is_empty() || self.geo.object.is_some();
+        if need_poses {
+            self.geo.robot.forward_kinematics(wrist, q, &mut self.poses);
+        }
         let clearance = if self.geo.barriers.is_empty() {
             None
         } else {
-            self.geo.robot.forward_kinematics(wrist, q, &mut self.poses);
             self.geo.min_clearance(&self.poses)
         };
-        let n = contacts.len();
+        let max_penetration_mm = self.geo.object.map_or(0.0, |sdf| {
+            crate::robot::probes::deepest(self.geo.robot, &self.poses, &object_pose.inverse(), sdf)
+                .map_or(0.0, |(d, _)| d * 1e3)
+        });
         FrameResult {
-            converged,
+            converged: stop == StopReason::Converged,
             iterations,
             contacts: n,
             mean_mm: eval.mean_m(n) * 1e3,
             max_mm: eval.max_m * 1e3,
             min_barrier_clearance_mm: clearance.map(|d| d * 1e3),
             non_finite: !finite,
+            stop,
+            max_penetration_mm,
         }
+    }
+
+    /// Penetration tolerance [m].
+    fn tolerance_m(&self) -> f64 {
+        self.params.penetration_tolerance_mm * 1e-3
+    }
+
+    /// Depth at which the non-penetration hinge starts [m].
+    fn hinge_start_m(&self) -> f64 {
+        0.5 * self.tolerance_m()
+    }
+
+    /// The stop rule: contacts within the threshold and, with the non-penetration term, no
+    /// probe deeper than the tolerance.
+    fn meets_stop_rule(&self, e: &Eval, contacts: usize) -> bool {
+        e.mean_m(contacts) < self.threshold_m()
+            && (self.object_from_world.is_none() || e.max_depth_m <= self.tolerance_m())
     }
 
     fn threshold_m(&self) -> f64 {
@@ -398,6 +550,7 @@ impl<'a> IkSolver<'a> {
         wrist: &Isometry3<f64>,
         q: &[f64],
     ) -> Eval {
+        let hinge = self.hinge_start_m();
         let poses = if trial {
             &mut self.trial_poses
         } else {
@@ -413,24 +566,38 @@ impl<'a> IkSolver<'a> {
         }
         let p = &self.params;
         if p.barrier_weight > 0.0 {
-            let (m, n) = (p.margin_m, p.steepness);
             let mut sum = 0.0;
-            for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
-                self.geo
-                    .near_points(poses, shape, obstacle, m, |_, _, d, _| {
-                        sum += (1.0 - d / m).powf(n);
-                    });
+            if p.objective == Objective::Paper {
+                let (m, n) = (p.margin_m, p.steepness);
+                for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
+                    self.geo
+                        .near_points(poses, shape, obstacle, m, |_, _, d, _| {
+                            sum += (1.0 - d / m).powf(n);
+                        });
+                }
+            } else {
+                let c = p.barrier_clearance_mm * 1e-3;
+                for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
+                    self.geo
+                        .near_points(poses, shape, obstacle, c, |_, _, d, _| {
+                            let v = (c - d) / DEPTH_SCALE_M;
+                            sum += v * v;
+                        });
+                }
             }
             e.barrier = p.barrier_weight * sum;
         }
-        if let (Some(shape), Some(obstacle)) = (self.geo.object, &self.object_obstacle) {
-            let m = p.margin_m;
-            let mut sum = 0.0;
+        if let (Some(sdf), Some(object_from_world)) = (self.geo.object, &self.object_from_world) {
+            let a = hinge;
+            let (mut sum, mut deepest) = (0.0, 0.0f64);
             self.geo
-                .near_points(poses, shape, obstacle, 0.0, |_, _, d, _| {
-                    sum += (d / m) * (d / m);
+                .active_probes(sdf, poses, object_from_world, a, |_, _, depth, _| {
+                    let v = (depth - a) / DEPTH_SCALE_M;
+                    sum += v * v;
+                    deepest = deepest.max(depth);
                 });
             e.penetration = p.penetration_weight * sum;
+            e.max_depth_m = deepest;
         }
         if p.solver == Solver::Lm && p.regularization > 0.0 {
             let dt =
@@ -471,6 +638,12 @@ pub struct Stats {
     pub d_c_mm: f64,
     /// Smallest hand-barrier clearance over all frames [mm]; `None` without barriers.
     pub min_barrier_clearance_mm: Option<f64>,
+    /// Frames per stop reason other than `converged`.
+    pub stop_reasons: std::collections::BTreeMap<StopReason, usize>,
+    /// Deepest penetration probe over all frames [mm] (0 without an object field).
+    pub max_penetration_mm: f64,
+    /// Objective minimized.
+    pub objective: Objective,
     /// Wall time [s].
     pub time_s: f64,
 }
@@ -491,7 +664,7 @@ pub fn run(
     warp: &ObjectWarp,
     init: &HandPath,
     barriers: &[CollisionShape],
-    object: Option<&CollisionShape>,
+    object: Option<&ObjectSdf>,
     params: &Params,
 ) -> (HandPath, Stats) {
     let clock = Instant::now();
@@ -579,6 +752,17 @@ pub fn run(
         .iter()
         .filter_map(|f| f.min_barrier_clearance_mm)
         .reduce(f64::min);
+    for f in &stats.frames {
+        if f.stop != StopReason::Converged {
+            *stats.stop_reasons.entry(f.stop).or_default() += 1;
+        }
+    }
+    stats.max_penetration_mm = stats
+        .frames
+        .iter()
+        .map(|f| f.max_penetration_mm)
+        .fold(0.0, f64::max);
+    stats.objective = params.objective;
     stats.time_s = clock.elapsed().as_secs_f64();
     (out, stats)
 }
@@ -598,7 +782,7 @@ mod tests {
     /// The analytic gradient of `F` (Adam) and the LM model gradient `2g` (IRLS, so it
     /// touches `F`) agree with central differences of `F` in the tangent parameterization,
     /// with every term active: contacts, a barrier box overlapping the palm, and the
-    /// penetration term against a ball the fingers enter.
+    /// non-penetration term against an object the fingers enter.
     #[test]
     fn gradients_match_finite_differences() {
         let robot = hand();
@@ -643,22 +827,41 @@ mod tests {
         )
         .unwrap();
         let barriers = [barrier];
-        let ball =
-            CollisionShape::new(ShapeKind::Sphere { radius: 0.02 }, Isometry3::identity()).unwrap();
-        for solver in [Solver::Adam, Solver::Lm] {
+        // The object: the apple mesh (about 4 cm in radius) around the index tip, so the
+        // fingers are inside it.
+        let sdf = ObjectSdf::new(
+            crate::synth::objects::object_mesh(crate::synth::objects::ObjectKind::Apple),
+            &crate::geometry::SdfParams::default(),
+        )
+        .unwrap();
+        for (solver, objective) in [
+            (Solver::Adam, Objective::NonPenetrating),
+            (Solver::Lm, Objective::NonPenetrating),
+            (Solver::Adam, Objective::Paper),
+            (Solver::Lm, Objective::Paper),
+        ] {
             let params = Params {
                 solver,
+                objective,
                 regularization: 0.0,
                 penetration_weight: 0.5,
+                penetration_tolerance_mm: 2.0,
                 steepness: 3.0,
                 ..Params::default()
             };
-            let mut ik = IkSolver::new(&robot, &barriers, Some(&ball), params);
+            let mut ik = IkSolver::new(&robot, &barriers, Some(&sdf), params);
             ik.wrist0 = wrist;
             ik.q0.copy_from_slice(&q);
-            ik.object_obstacle = Some(Obstacle::new(&ball, &(object_pose * ball.shape_pose)));
+            ik.object_from_world = Some(object_pose.inverse());
+            if objective == Objective::Paper {
+                ik.object_from_world = None;
+            }
             let e = ik.evaluate(false, &object_pose, &contacts, &wrist, &q);
-            assert!(e.barrier > 0.0 && e.penetration > 0.0, "{e:?}");
+            assert!(e.barrier > 0.0, "{e:?}");
+            assert!(
+                e.penetration > 0.0 || objective == Objective::Paper,
+                "{e:?}"
+            );
             let analytic: Vec<f64> = match solver {
                 Solver::Adam => {
                     ik.gradient(&object_pose, &contacts);
