@@ -95,7 +95,7 @@ impl FromStr for Shard {
 
 /// Reads and validates a manifest; errors name the line.
 pub fn read_manifest(path: &Path, limits: &Limits) -> Result<Vec<Item>> {
-    let bytes = read_limited(path, limits.max_file_bytes, "--max-file-mb")?;
+    let bytes = read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
     let text = String::from_utf8(bytes)
         .map_err(|_| Error::invalid(path, "(file)", "is not UTF-8 text; expected JSON Lines"))?;
     let mut items: Vec<Item> = Vec::new();
@@ -126,15 +126,7 @@ pub fn read_manifest(path: &Path, limits: &Limits) -> Result<Vec<Item>> {
         let hand = j.hand.unwrap_or_default();
         let name = match j.name {
             Some(n) => {
-                if n.is_empty() || n.contains(['/', '\\']) || n == "." || n == ".." {
-                    return Err(Error::invalid(
-                        path,
-                        format!("{field}.name"),
-                        format!(
-                            "{n:?} is not a folder name; expected a plain name without slashes"
-                        ),
-                    ));
-                }
+                crate::model::config::check_output_name(path, &format!("{field}.name"), &n)?;
                 n
             }
             None => {

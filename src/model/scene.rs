@@ -119,7 +119,7 @@ pub struct Scene {
 impl Scene {
     /// Reads and validates a scene file.
     pub fn load(path: &Path, limits: &Limits) -> Result<Scene> {
-        let file: SceneFile = json::read_json(path, limits)?;
+        let file: SceneFile = json::read_json_format(path, limits, SCENE_FORMAT)?;
         Scene::from_file(file, path)
     }
 
@@ -146,7 +146,7 @@ impl Scene {
                     format!("{:?} is used twice; item names must be unique", it.name),
                 ));
             }
-            let t = c.vec3(|| format!("items[{k}].pose.position"), it.pose.position)?;
+            let t = c.world_vec3(|| format!("items[{k}].pose.position"), it.pose.position)?;
             let r: UnitQuaternion<f64> = c.quaternion(
                 || format!("items[{k}].pose.orientation"),
                 it.pose.orientation,
