@@ -472,6 +472,12 @@ fn run(cli: Cli) -> Result<()> {
             warm_start,
         } => {
             let inputs = Inputs::load(&config, demo.as_deref(), &limits)?;
+            // Before any work: no output may replace an input of this run.
+            dexwarp::output::check_not_inputs(
+                &out,
+                &dexwarp::output::run_file_names(&inputs.config.name),
+                &inputs.paths(),
+            )?;
             let options = Options {
                 demo,
                 threshold_mm,
@@ -501,8 +507,21 @@ fn run(cli: Cli) -> Result<()> {
                 &dexwarp::physics::Params::default(),
                 &limits,
             )?;
-            dexwarp::output::frames::write_csv(&out.join("frames.csv"), &frames)?;
-            dexwarp::model::json::write_json_atomic(&out.join("report.json"), &report)?;
+            dexwarp::output::check_not_inputs(
+                &out,
+                &["frames.csv".into(), dexwarp::output::REPORT.into()],
+                &[demo.as_path()],
+            )?;
+            let frames_path = out.join("frames.csv");
+            let mut report = report;
+            dexwarp::output::commit_set(
+                &out,
+                vec![(
+                    "frames.csv".into(),
+                    dexwarp::output::frames::csv_bytes(&frames_path, &frames)?,
+                )],
+                &mut report,
+            )?;
             let physics = report.physics.as_ref();
             eprintln!(
                 "{}: physics {}{}; D_C {:.2} mm; report in {}",

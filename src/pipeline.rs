@@ -23,6 +23,7 @@ use crate::hand::ik::{self, Solver};
 use crate::hand::{HandPath, baseline, smooth};
 use crate::math::convert::to_pose;
 use crate::metrics;
+use crate::model::provenance::Provenance;
 use crate::model::report::{
     Constraints, ContactDistance, IkSummary, Metrics, Pair, REPORT_FORMAT, Report,
 };
@@ -118,6 +119,19 @@ impl Inputs {
     }
 }
 
+impl Inputs {
+    /// The files these inputs were read from: config, demonstration, scene, robot, mesh.
+    pub fn paths(&self) -> [&Path; 5] {
+        [
+            &self.config.source,
+            &self.demo.source,
+            &self.config.scene,
+            &self.demo.robot,
+            &self.demo.object.mesh,
+        ]
+    }
+}
+
 /// Runs the pipeline on loaded inputs (see the module docs for the stages).
 pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let Inputs {
@@ -166,6 +180,26 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let base = baseline::run(demo, &object)
         .map_err(|e| Error::invalid(&config.source, "(hand)", e.to_string()))?;
     timing.insert("baseline".into(), clock.elapsed().as_secs_f64());
+    let mut provenance = Provenance::new();
+    provenance.input("config", &config.source);
+    provenance.input("demo", &demo.source);
+    provenance.input("scene", &config.scene);
+    provenance.input("robot", &demo.robot);
+    provenance.input("mesh", &demo.object.mesh);
+    provenance.parameters("warp", &config.params);
+    provenance.parameters(
+        "options",
+        &serde_json::json!({
+            "hand": options.hand,
+            "threshold_mm": threshold,
+            "solver": options.solver,
+            "physics": options.physics.is_some(),
+        }),
+    );
+    provenance.parameters("limits", &options.limits);
+    if let Some(p) = &options.physics {
+        provenance.parameters("physics", p);
+    }
     let mut unsmoothed: Option<HandPath> = None;
     let (hand, ik_stats) = match options.hand {
         HandMethod::Baseline => (base, None),
@@ -182,6 +216,8 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
                 warm_start: options.warm_start.unwrap_or(config.params.warm_start),
                 ..ik::Params::default()
             };
+            provenance.parameters("ik", &params);
+            provenance.parameters("smooth", &smooth::Params::default());
             let object_shape = (params.penetration_weight > 0.0)
                 .then(|| object_collision_shape(&demo.object.mesh, mesh))
                 .flatten();
@@ -283,6 +319,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         }
     }
     check_metrics(&config.source, &report, &frames)?;
+    report.provenance = Some(provenance);
     timing.insert("metrics".into(), clock.elapsed().as_secs_f64());
     report.timing_s = timing;
     Ok(WarpRun {
@@ -571,6 +608,18 @@ pub fn validate(
         ..Report::default()
     };
     check_metrics(demo_path, &report, &frames)?;
+    let mut provenance = Provenance::new();
+    provenance.input("demo", demo_path);
+    provenance.input("scene", &scene_path);
+    provenance.input("robot", &demo.robot);
+    provenance.input("mesh", &demo.object.mesh);
+    provenance.parameters("barriers", &barriers);
+    provenance.parameters("physics", params);
+    provenance.parameters("limits", limits);
+    let report = Report {
+        provenance: Some(provenance),
+        ..report
+    };
     Ok((report, frames))
 }
 

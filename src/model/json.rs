@@ -174,6 +174,15 @@ pub fn resolve_relative(file: &Path, written: &Path) -> PathBuf {
     }
 }
 
+/// A number as a person reads it: plain when moderate, `1e-300` style when tiny or huge.
+fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// Semantic checks on parsed values, each naming the file and the JSON path.
 #[derive(Debug, Clone, Copy)]
 pub struct FieldCheck<'a> {
@@ -273,8 +282,10 @@ impl<'a> FieldCheck<'a> {
                 self.path,
                 field(),
                 format!(
-                    "is {:?}; expected coordinates within ±{bound} m ({what})",
-                    [v.x, v.y, v.z]
+                    "is [{}, {}, {}]; expected coordinates within ±{bound} m ({what})",
+                    num(v.x),
+                    num(v.y),
+                    num(v.z)
                 ),
             ));
         }
@@ -295,7 +306,10 @@ impl<'a> FieldCheck<'a> {
             Err(Error::invalid(
                 self.path,
                 field(),
-                format!("is {v}; expected a number from {lo} to {hi} ({unit})"),
+                format!(
+                    "is {}; expected a number from {lo} to {hi} ({unit})",
+                    num(v)
+                ),
             ))
         }
     }
