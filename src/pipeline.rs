@@ -100,6 +100,11 @@ impl Inputs {
     /// Loads the config, its demonstration (or `demo`), robot, scene and object mesh.
     pub fn load(config: &Path, demo: Option<&Path>, limits: &Limits) -> Result<Inputs> {
         let config = WarpConfig::load(config, limits)?;
+        // Missing files named by the config are errors of its fields.
+        if demo.is_none() {
+            crate::model::demo::require_file(&config.source, "demo", &config.demo)?;
+        }
+        crate::model::demo::require_file(&config.source, "scene", &config.scene)?;
         let demo_path = demo
             .map(Path::to_path_buf)
             .unwrap_or_else(|| config.demo.clone());
@@ -763,4 +768,11 @@ fn check_metrics(path: &Path, report: &Report, frames: &[FrameRow]) -> Result<()
             ]
         }),
     )
+}
+
+/// The hand-recovery stage boundary check, for callers holding a [`HandPath`] of their own:
+/// the first NaN or infinite wrist coordinate or joint value as [`Error::NonFinite`] with its
+/// output frame; `path` names the run's config.
+pub fn check_hand_path(path: &Path, hand: &HandPath) -> Result<()> {
+    check_hand(path, "hand recovery (4-5)", hand)
 }

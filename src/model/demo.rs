@@ -424,7 +424,8 @@ fn pose(c: &FieldCheck, i: usize, which: &str, p: &PoseJson) -> Result<Isometry3
     Ok(Isometry3::from_parts(Translation3::from(t), r))
 }
 
-fn require_file(path: &Path, field: &str, target: &Path) -> Result<()> {
+/// Checks that `target`, named by `field` of `path`, is a file, naming the field if not.
+pub(crate) fn require_file(path: &Path, field: &str, target: &Path) -> Result<()> {
     match std::fs::metadata(target) {
         Ok(m) if m.is_file() => Ok(()),
         Ok(_) => Err(Error::invalid(
