@@ -113,7 +113,8 @@ fn finite_but_absurd_numbers_are_refused_with_the_field() {
     let config = gripper_fixture(dir.path());
     let demo = read_json(&dir.path().join("box.demo.json"));
     let out = dir.path().join("out");
-    let cases: [(&str, fn(&mut Value), &str); 7] = [
+    type Case = (&'static str, fn(&mut Value), &'static str);
+    let cases: [Case; 7] = [
         (
             "hand point",
             |d| d["frames"][20]["contacts"][0]["hand_point"][1] = serde_json::json!(1e308),
