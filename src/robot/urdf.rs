@@ -107,7 +107,8 @@ impl Robot {
 /// linear pass, without building anything, and refuses the text when a count is over
 /// [`Limits::max_links`] or the depth over [`Limits::max_xml_depth`]. It runs before the XML
 /// parser, whose work and recursion grow with both: 100,000 links or 20,000 levels of
-/// nesting are refused in milliseconds.
+/// nesting are refused in milliseconds (the depth as soon as it is passed, the counts after
+/// the whole text is counted).
 ///
 /// The scan knows just enough XML to count right: comments, CDATA sections, processing
 /// instructions and declarations are skipped, `'`/`"` quoted attribute values may hold `>`,
@@ -144,7 +145,7 @@ fn prescan_xml(text: &str, source: &Path, limits: &Limits) -> Result<()> {
                     i = next;
                     continue;
                 }
-                None => return Ok(()),
+                None => break,
             }
         }
         let closing = rest.get(1) == Some(&b'/');
@@ -166,7 +167,7 @@ fn prescan_xml(text: &str, source: &Path, limits: &Limits) -> Result<()> {
             j += 1;
         }
         if j >= b.len() {
-            return Ok(());
+            break;
         }
         let self_closing = b[j - 1] == b'/';
         if closing {
@@ -182,38 +183,31 @@ fn prescan_xml(text: &str, source: &Path, limits: &Limits) -> Result<()> {
                 deepest = deepest.max(depth);
             }
         }
-        let over = |what, found, limit, flag| Error::TooLarge {
-            path: source.to_path_buf(),
-            what,
-            found,
-            limit,
-            flag,
-        };
-        if links > limits.max_links {
-            return Err(over(
-                "the number of <link> elements",
-                links,
-                limits.max_links,
-                "--max-links",
-            ));
-        }
-        if joints > limits.max_links {
-            return Err(over(
-                "the number of <joint> elements",
-                joints,
-                limits.max_links,
-                "--max-links",
-            ));
-        }
         if deepest > limits.max_xml_depth {
-            return Err(over(
-                "the XML element nesting depth",
-                deepest,
-                limits.max_xml_depth,
-                "--max-xml-depth",
-            ));
+            return Err(Error::TooLarge {
+                path: source.to_path_buf(),
+                what: "the XML element nesting depth",
+                found: deepest,
+                limit: limits.max_xml_depth,
+                flag: "--max-xml-depth",
+            });
         }
         i = j + 1;
+    }
+    // Counting to the end is linear and cheap; the message then gives the true count.
+    for (what, found) in [
+        ("the number of <link> elements", links),
+        ("the number of <joint> elements", joints),
+    ] {
+        if found > limits.max_links {
+            return Err(Error::TooLarge {
+                path: source.to_path_buf(),
+                what,
+                found,
+                limit: limits.max_links,
+                flag: "--max-links",
+            });
+        }
     }
     Ok(())
 }
