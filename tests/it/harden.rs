@@ -641,8 +641,9 @@ fn fuzz_mutated_demos_and_configs_never_panic_nan_or_escape() {
         write_json(&cfg_path, &config);
         let before = files_below(root.path());
         let out = root.path().join(format!("case{case}_out"));
-        let physics = case % 10 == 0;
-        let hand = if case % 2 == 0 {
+        let physics = case % 25 == 0;
+        // Contact IK on every fifth case (it dominates the test's time), baseline otherwise.
+        let hand = if case % 5 == 0 {
             HandMethod::Contact
         } else {
             HandMethod::Baseline
@@ -709,6 +710,7 @@ fn fuzz_mutated_demos_and_configs_never_panic_nan_or_escape() {
             }
         }
     }
+    eprintln!("fuzz: {cases} cases, {accepted} accepted, {refused} refused");
     assert!(
         accepted > 20 && refused > 20,
         "accepted {accepted}, refused {refused}"
