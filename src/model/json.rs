@@ -292,6 +292,24 @@ impl<'a> FieldCheck<'a> {
         Ok(v)
     }
 
+    /// A scene size [m]: a finite number > 0 no larger than the world
+    /// (2 × [`WORLD_HALF_EXTENT_M`](crate::limits::WORLD_HALF_EXTENT_M)).
+    pub fn size(&self, field: impl Fn() -> String, v: f64) -> Result<f64> {
+        self.positive(&field, v, "m")?;
+        let world = 2.0 * crate::limits::WORLD_HALF_EXTENT_M;
+        if v > world {
+            return Err(Error::invalid(
+                self.path,
+                field(),
+                format!(
+                    "is {} m; expected at most {world} m (the world size)",
+                    num(v)
+                ),
+            ));
+        }
+        Ok(v)
+    }
+
     /// A finite number in `[lo, hi]`.
     pub fn in_range(
         &self,
