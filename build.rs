@@ -13,22 +13,16 @@ fn git(args: &[&str]) -> Option<String> {
 
 fn main() {
     let revision = git(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
-    let dirty = git(&["status", "--porcelain", "--untracked-files=no"]).is_some();
-    let revision = if dirty && revision != "unknown" {
-        format!("{revision}-modified")
-    } else {
-        revision
-    };
     println!("cargo:rustc-env=DEXWARP_GIT_REVISION={revision}");
-    // Rebuild when HEAD moves (a commit, a checkout) or the index changes.
+    // Rebuild when HEAD moves (a commit, a checkout); not on every `git add`, which would
+    // recompile the crate for nothing.
     if let Some(dir) = git(&["rev-parse", "--git-dir"]) {
         println!("cargo:rerun-if-changed={dir}/HEAD");
-        println!("cargo:rerun-if-changed={dir}/index");
         if let Some(head) = git(&["symbolic-ref", "-q", "HEAD"]) {
+            println!("cargo:rerun-if-changed={dir}/{head}");
             if let Some(common) = git(&["rev-parse", "--git-common-dir"]) {
                 println!("cargo:rerun-if-changed={common}/{head}");
             }
-            println!("cargo:rerun-if-changed={dir}/{head}");
         }
     }
     println!("cargo:rerun-if-changed=build.rs");

@@ -12,8 +12,8 @@ use serde::{Deserialize, Serialize};
 /// The tool's version (`Cargo.toml`).
 pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
 
-/// The git revision the binary was built from (`build.rs`), `unknown` outside a checkout;
-/// `-modified` is appended when tracked files had uncommitted changes.
+/// The git revision (commit) the binary was built from (`build.rs`), `unknown` outside a
+/// checkout or without git. Uncommitted changes are not marked.
 pub const GIT_REVISION: &str = env!("DEXWARP_GIT_REVISION");
 
 /// One input file of a run.
