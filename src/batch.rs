@@ -95,7 +95,7 @@ impl FromStr for Shard {
 
 /// Reads and validates a manifest; errors name the line.
 pub fn read_manifest(path: &Path, limits: &Limits) -> Result<Vec<Item>> {
-    let bytes = read_limited(path, limits.max_file_bytes, "--max-file-mb")?;
+    let bytes = read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
     let text = String::from_utf8(bytes)
         .map_err(|_| Error::invalid(path, "(file)", "is not UTF-8 text; expected JSON Lines"))?;
     let mut items: Vec<Item> = Vec::new();
@@ -126,15 +126,7 @@ pub fn read_manifest(path: &Path, limits: &Limits) -> Result<Vec<Item>> {
         let hand = j.hand.unwrap_or_default();
         let name = match j.name {
             Some(n) => {
-                if n.is_empty() || n.contains(['/', '\\']) || n == "." || n == ".." {
-                    return Err(Error::invalid(
-                        path,
-                        format!("{field}.name"),
-                        format!(
-                            "{n:?} is not a folder name; expected a plain name without slashes"
-                        ),
-                    ));
-                }
+                crate::model::config::check_output_name(path, &format!("{field}.name"), &n)?;
                 n
             }
             None => {
@@ -212,45 +204,68 @@ pub struct Outcome {
     pub seconds: f64,
 }
 
-/// Runs the items of `shard` into `out`, writes `out/batch.csv`, and returns the outcomes in
-/// manifest order.
+/// Runs the items of `shard` into `out` and returns the outcomes in manifest order.
+///
+/// `out/batch.csv` (or `batch.shardKofN.csv`) is rewritten atomically each time an item
+/// finishes, in manifest order, so a killed batch leaves the rows of every item it finished;
+/// skipped items (finished by an earlier run) keep the figures of their report. Temporaries
+/// of killed runs below `out` are removed first.
 pub fn run(items: &[Item], out: &Path, options: &BatchOptions) -> Result<Vec<Outcome>> {
     std::fs::create_dir_all(out).map_err(|e| Error::write(out, e))?;
+    crate::output::clean_stale(out);
     let selected: Vec<&Item> = items
         .iter()
         .filter(|it| options.shard.is_none_or(|s| it.index % s.count == s.index))
         .collect();
+    for it in &selected {
+        let dir = out.join(&it.name);
+        if dir.is_dir() {
+            crate::output::clean_stale(&dir);
+        }
+    }
+    let summary = match options.shard {
+        Some(s) => out.join(format!("batch.shard{}of{}.csv", s.index, s.count)),
+        None => out.join("batch.csv"),
+    };
+    let done: std::sync::Mutex<Vec<Option<Outcome>>> =
+        std::sync::Mutex::new(vec![None; selected.len()]);
     let bar = progress::bar(selected.len() as u64, options.progress);
     let work = || {
         selected
             .par_iter()
-            .map(|it| {
+            .enumerate()
+            .map(|(k, it)| {
                 let o = run_item(it, out, options);
                 bar.inc(1);
                 if o.status == "failed" {
                     bar.println(format!("{}: {}", o.name, o.error));
                 }
-                o
+                // One writer at a time: the summary's temporary name is per process.
+                let mut done = done.lock().unwrap_or_else(|p| p.into_inner());
+                done[k] = Some(o.clone());
+                let written = write_summary(&summary, done.iter().flatten());
+                drop(done);
+                written.map(|()| o)
             })
-            .collect::<Vec<_>>()
+            .collect::<Result<Vec<_>>>()
     };
     let outcomes = progress::with_jobs(options.jobs, work)
-        .map_err(|e| Error::invalid(out, "--jobs", e.to_string()))?;
+        .map_err(|e| Error::invalid(out, "--jobs", e.to_string()))??;
     bar.finish_and_clear();
+    Ok(outcomes)
+}
+
+/// Writes the summary CSV of `outcomes` atomically.
+fn write_summary<'a>(path: &Path, outcomes: impl Iterator<Item = &'a Outcome>) -> Result<()> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    for o in &outcomes {
+    for o in outcomes {
         w.serialize(o)
-            .map_err(|e| Error::write(out, std::io::Error::other(e)))?;
+            .map_err(|e| Error::write(path, std::io::Error::other(e)))?;
     }
     let bytes = w
         .into_inner()
-        .map_err(|e| Error::write(out, std::io::Error::other(e.to_string())))?;
-    let summary = match options.shard {
-        Some(s) => out.join(format!("batch.shard{}of{}.csv", s.index, s.count)),
-        None => out.join("batch.csv"),
-    };
-    write_atomic(&summary, &bytes)?;
-    Ok(outcomes)
+        .map_err(|e| Error::write(path, std::io::Error::other(e.to_string())))?;
+    write_atomic(path, &bytes)
 }
 
 fn run_item(item: &Item, out: &Path, options: &BatchOptions) -> Outcome {
@@ -266,13 +281,23 @@ fn run_item(item: &Item, out: &Path, options: &BatchOptions) -> Outcome {
         verdict: None,
         seconds: 0.0,
     };
-    if !options.force && finished(&report_path) {
+    if !options.force
+        && let Some(done) = finished(&report_path)
+    {
         outcome.status = "skipped";
+        outcome.frames_out = Some(done.frames_out);
+        outcome.d_c_mm = Some(done.metrics.d_c_mm.warped);
+        outcome.verdict = done.physics.map(|p| p.verdict);
         return outcome;
     }
     let clock = std::time::Instant::now();
     let result = (|| -> Result<Report> {
         let inputs = Inputs::load(&item.config, item.demo.as_deref(), &options.limits)?;
+        crate::output::check_not_inputs(
+            &dir,
+            &crate::output::run_file_names(&inputs.config.name),
+            &inputs.paths(),
+        )?;
         let run = pipeline::warp(
             &inputs,
             &Options {
@@ -319,10 +344,13 @@ fn run_item(item: &Item, out: &Path, options: &BatchOptions) -> Outcome {
     outcome
 }
 
-/// True when `report.json` exists, parses, and has no error.
-fn finished(report: &Path) -> bool {
-    std::fs::read(report)
+/// The report of a finished item: `report.json` exists, parses, has no error, and the
+/// files of its output set are the ones it was written with.
+fn finished(report: &Path) -> Option<Report> {
+    let r = std::fs::read(report)
         .ok()
         .and_then(|b| serde_json::from_slice::<Report>(&b).ok())
-        .is_some_and(|r| r.error.is_none())
+        .filter(|r| r.error.is_none())?;
+    crate::output::set_is_complete(report, &r).ok()?;
+    Some(r)
 }

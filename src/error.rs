@@ -55,6 +55,23 @@ pub enum Error {
         flag: &'static str,
     },
 
+    /// A stage produced a NaN or an infinity: the input drove a computation out of range.
+    /// Caught at the stage boundary, so it is reported instead of written as a "pass".
+    #[error(
+        "{}: stage {stage}: {quantity} at {} is {value}; expected a finite number (the input drives this stage out of range; check the values it starts from)",
+        path.display(),
+        frame.map_or("the whole trajectory".to_string(), |f| format!("output frame {f}"))
+    )]
+    NonFinite {
+        /// The config (warp) or demonstration (validate) of the run.
+        path: PathBuf,
+        stage: &'static str,
+        /// Output frame, when the quantity is per frame.
+        frame: Option<usize>,
+        quantity: &'static str,
+        value: f64,
+    },
+
     /// A feature of the input that dexwarp does not support.
     #[error("{}: {field}: {message}", path.display())]
     Unsupported {

@@ -70,8 +70,14 @@ pub fn find_reports(dir: &Path) -> Result<Vec<PathBuf>> {
         let entries = std::fs::read_dir(&d).map_err(|e| Error::read(&d, e))?;
         for e in entries {
             let p = e.map_err(|e| Error::read(&d, e))?.path();
+            let hidden = p
+                .file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with('.'));
             if p.is_dir() {
-                stack.push(p);
+                // Hidden folders are temporaries of runs in progress or killed.
+                if !hidden {
+                    stack.push(p);
+                }
             } else if p.file_name().is_some_and(|n| n == "report.json") {
                 out.push(p);
             }
@@ -128,6 +134,9 @@ fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
         row.demo = demo.display().to_string();
     }
     let mut reasons = Vec::new();
+    if let Err(why) = crate::output::set_is_complete(path, &report) {
+        reasons.push(why);
+    }
     if let Some(e) = &report.error {
         reasons.push(format!("failed: {e}"));
     } else {

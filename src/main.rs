@@ -42,14 +42,23 @@ struct LimitArgs {
     /// Most links or joints in one robot (default 1024).
     #[arg(long, global = true, value_name = "N")]
     max_links: Option<u64>,
+    /// Deepest XML element nesting in a URDF (default 64).
+    #[arg(long, global = true, value_name = "N")]
+    max_xml_depth: Option<u64>,
+    /// Most physics steps of one replay, frames x steps per frame (default 10000000).
+    #[arg(long, global = true, value_name = "N")]
+    max_physics_steps: Option<u64>,
+    /// Read devices and pipes as input files (the byte limit still applies).
+    #[arg(long, global = true)]
+    allow_special_files: bool,
 }
 
 impl LimitArgs {
     fn limits(&self) -> Limits {
         let mut l = Limits::default();
         if let Some(mb) = self.max_file_mb {
-            l.max_file_bytes = mb << 20;
-            l.max_mesh_bytes = mb << 20;
+            l.max_file_bytes = mb.saturating_mul(1 << 20);
+            l.max_mesh_bytes = mb.saturating_mul(1 << 20);
         }
         if let Some(n) = self.max_frames {
             l.max_frames = n;
@@ -63,6 +72,13 @@ impl LimitArgs {
         if let Some(n) = self.max_links {
             l.max_links = n;
         }
+        if let Some(n) = self.max_xml_depth {
+            l.max_xml_depth = n;
+        }
+        if let Some(n) = self.max_physics_steps {
+            l.max_physics_steps = n;
+        }
+        l.allow_special_files = self.allow_special_files;
         l
     }
 }
@@ -115,7 +131,7 @@ enum Command {
         #[arg(long, value_name = "N")]
         seed: Option<u64>,
         /// Correspondence noise, standard deviation per axis [mm].
-        #[arg(long, value_name = "MM")]
+        #[arg(long, value_name = "MM", value_parser = non_negative, allow_negative_numbers = true)]
         noise_mm: Option<f64>,
     },
     /// Load a hand and print its links, DoF, joint limits, mimic joints and collision shapes.
@@ -142,7 +158,7 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
         /// IK stop threshold on the mean contact distance [mm] (overrides the config).
-        #[arg(long, value_name = "MM", value_parser = positive_mm)]
+        #[arg(long, value_name = "MM", value_parser = positive_mm, allow_negative_numbers = true)]
         threshold_mm: Option<f64>,
         /// How the hand is recovered.
         #[arg(long, value_enum, default_value_t = HandArg::Contact)]
@@ -158,7 +174,7 @@ enum Command {
         #[arg(long, value_enum, value_name = "OBJ")]
         objective: Option<ObjectiveArg>,
         /// Weight of the IK's non-penetration term (overrides the config; 0 = off).
-        #[arg(long, value_name = "W")]
+        #[arg(long, value_name = "W", value_parser = non_negative, allow_negative_numbers = true)]
         penetration_weight: Option<f64>,
         /// IK warm start (overrides the config): previous (the paper) or follow-object.
         #[arg(long, value_enum, value_name = "HOW")]
@@ -214,16 +230,16 @@ enum Command {
         #[arg(long, value_name = "KEEP.csv")]
         out: PathBuf,
         /// Drop items whose output D_C is above this [mm].
-        #[arg(long, value_name = "MM", value_parser = positive_mm)]
+        #[arg(long, value_name = "MM", value_parser = positive_mm, allow_negative_numbers = true)]
         max_dc_mm: Option<f64>,
         /// Drop items whose IK converged on fewer frames than this fraction (0-1).
-        #[arg(long, value_name = "FRACTION", value_parser = fraction)]
+        #[arg(long, value_name = "FRACTION", value_parser = fraction, allow_negative_numbers = true)]
         min_converged: Option<f64>,
         /// Drop items whose waypoint error is above this [mm].
-        #[arg(long, value_name = "MM", value_parser = positive_mm)]
+        #[arg(long, value_name = "MM", value_parser = positive_mm, allow_negative_numbers = true)]
         max_waypoint_error_mm: Option<f64>,
         /// Drop items whose timewarp discrepancy is above this.
-        #[arg(long, value_name = "D", value_parser = fraction)]
+        #[arg(long, value_name = "D", value_parser = fraction, allow_negative_numbers = true)]
         max_timewarp: Option<f64>,
         /// Do not require a physics pass.
         #[arg(long)]
@@ -287,9 +303,22 @@ impl From<SolverArg> for Solver {
 fn positive_mm(s: &str) -> std::result::Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!(
-            "expected a distance in millimetres > 0, like 3.5; got {s:?}"
+        Ok(v) if v.is_finite() => Err(format!(
+            "the value must be positive: a distance in millimetres > 0, like 3.5; got {v}"
         )),
+        _ => Err(format!(
+            "expected a finite distance in millimetres > 0, like 3.5; got {s:?}"
+        )),
+    }
+}
+
+fn non_negative(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        Ok(v) if v.is_finite() => Err(format!(
+            "the value must not be negative: a finite number >= 0, like 2; got {v}"
+        )),
+        _ => Err(format!("expected a finite number >= 0, like 2; got {s:?}")),
     }
 }
 
@@ -325,11 +354,43 @@ fn main() -> ExitCode {
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", error_text(&err));
             ExitCode::FAILURE
         }
     }
 }
+
+/// The error and its causes, each cause only when the text so far does not already say it
+/// (our file errors carry the OS error in their own message).
+fn error_text(err: &anyhow::Error) -> String {
+    let mut text = err.to_string();
+    for cause in err.chain().skip(1) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text
+}
+
+/// Worker threads asked for, capped at [`MAX_JOBS_PER_CORE`] per core with a message: more
+/// threads than that only add switching and memory (5000 jobs ran 30x slower than 2).
+fn capped_jobs(jobs: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cap = MAX_JOBS_PER_CORE * cores;
+    if jobs > cap {
+        eprintln!(
+            "note: --jobs {jobs} is more than {MAX_JOBS_PER_CORE} per core; using {cap} ({cores} cores)"
+        );
+        cap
+    } else {
+        jobs
+    }
+}
+
+/// Most worker threads per core `--jobs` may ask for.
+const MAX_JOBS_PER_CORE: usize = 4;
 
 fn run(cli: Cli) -> Result<()> {
     let limits = cli.limits.limits();
@@ -352,7 +413,7 @@ fn run(cli: Cli) -> Result<()> {
                 out: out.clone(),
                 root,
                 quick,
-                jobs,
+                jobs: capped_jobs(jobs),
                 limits,
                 progress: true,
             })?;
@@ -424,6 +485,12 @@ fn run(cli: Cli) -> Result<()> {
             warm_start,
         } => {
             let inputs = Inputs::load(&config, demo.as_deref(), &limits)?;
+            // Before any work: no output may replace an input of this run.
+            dexwarp::output::check_not_inputs(
+                &out,
+                &dexwarp::output::run_file_names(&inputs.config.name),
+                &inputs.paths(),
+            )?;
             let options = Options {
                 demo,
                 threshold_mm,
@@ -457,8 +524,21 @@ fn run(cli: Cli) -> Result<()> {
                 &dexwarp::physics::Params::default(),
                 &limits,
             )?;
-            dexwarp::output::frames::write_csv(&out.join("frames.csv"), &frames)?;
-            dexwarp::model::json::write_json_atomic(&out.join("report.json"), &report)?;
+            dexwarp::output::check_not_inputs(
+                &out,
+                &["frames.csv".into(), dexwarp::output::REPORT.into()],
+                &[demo.as_path()],
+            )?;
+            let frames_path = out.join("frames.csv");
+            let mut report = report;
+            dexwarp::output::commit_set(
+                &out,
+                vec![(
+                    "frames.csv".into(),
+                    dexwarp::output::frames::csv_bytes(&frames_path, &frames)?,
+                )],
+                &mut report,
+            )?;
             let physics = report.physics.as_ref();
             eprintln!(
                 "{}: physics {}{}; D_C {:.2} mm; report in {}",
@@ -485,7 +565,7 @@ fn run(cli: Cli) -> Result<()> {
                 &items,
                 &out,
                 &batch::BatchOptions {
-                    jobs,
+                    jobs: capped_jobs(jobs),
                     shard,
                     force,
                     limits,

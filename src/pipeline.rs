@@ -23,6 +23,7 @@ use crate::hand::ik::{self, Solver};
 use crate::hand::{HandPath, baseline, smooth};
 use crate::math::convert::to_pose;
 use crate::metrics;
+use crate::model::provenance::Provenance;
 use crate::model::report::{
     Constraints, ContactDistance, IkSummary, Metrics, Pair, REPORT_FORMAT, Report,
 };
@@ -101,6 +102,11 @@ impl Inputs {
     /// Loads the config, its demonstration (or `demo`), robot, scene and object mesh.
     pub fn load(config: &Path, demo: Option<&Path>, limits: &Limits) -> Result<Inputs> {
         let config = WarpConfig::load(config, limits)?;
+        // Missing files named by the config are errors of its fields.
+        if demo.is_none() {
+            crate::model::demo::require_file(&config.source, "demo", &config.demo)?;
+        }
+        crate::model::demo::require_file(&config.source, "scene", &config.scene)?;
         let demo_path = demo
             .map(Path::to_path_buf)
             .unwrap_or_else(|| config.demo.clone());
@@ -117,6 +123,19 @@ impl Inputs {
             scene,
             mesh,
         })
+    }
+}
+
+impl Inputs {
+    /// The files these inputs were read from: config, demonstration, scene, robot, mesh.
+    pub fn paths(&self) -> [&Path; 5] {
+        [
+            &self.config.source,
+            &self.demo.source,
+            &self.config.scene,
+            &self.demo.robot,
+            &self.demo.object.mesh,
+        ]
     }
 }
 
@@ -139,6 +158,18 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     })?;
     let input = ObjectPath::from_poses(demo.frames.iter().map(|f| &f.object));
     let plan = WarpPlan::new(config, &input.positions, segment)?;
+    options
+        .limits
+        .check_output_frames(&config.source, plan.frames_out() as u64)?;
+    if let Some(p) = &options.physics {
+        check_physics_work(
+            &options.limits,
+            &config.source,
+            plan.frames_out(),
+            demo.fps,
+            p,
+        )?;
+    }
     let radius = mesh.bounding_radius();
     let barriers = prepare_barriers(config, scene, radius, &options.limits)?;
     let params = config.params.object_params();
@@ -148,6 +179,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     timing.insert("spatial".into(), object.spatial.stats.time_s);
     timing.insert("barrier".into(), object.barrier.stats.time_s);
     timing.insert("retime".into(), object.retime.stats.time_s);
+    check_path(&config.source, "object warp (1-3)", object.path())?;
 
     // Stage 4: hand recovery (the baseline is also contact IK's first warm start).
     let clock = Instant::now();
@@ -155,6 +187,26 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let base = baseline::run(demo, &object)
         .map_err(|e| Error::invalid(&config.source, "(hand)", e.to_string()))?;
     timing.insert("baseline".into(), clock.elapsed().as_secs_f64());
+    let mut provenance = Provenance::new();
+    provenance.input("config", &config.source);
+    provenance.input("demo", &demo.source);
+    provenance.input("scene", &config.scene);
+    provenance.input("robot", &demo.robot);
+    provenance.input("mesh", &demo.object.mesh);
+    provenance.parameters("warp", &config.params);
+    provenance.parameters(
+        "options",
+        &serde_json::json!({
+            "hand": options.hand,
+            "threshold_mm": threshold,
+            "solver": options.solver,
+            "physics": options.physics.is_some(),
+        }),
+    );
+    provenance.parameters("limits", &options.limits);
+    if let Some(p) = &options.physics {
+        provenance.parameters("physics", p);
+    }
     let mut unsmoothed: Option<HandPath> = None;
     let (hand, ik_stats) = match options.hand {
         HandMethod::Baseline => (base, None),
@@ -173,6 +225,8 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
                 warm_start: options.warm_start.unwrap_or(config.params.warm_start),
                 ..ik::Params::default()
             };
+            provenance.parameters("ik", &params);
+            provenance.parameters("smooth", &smooth::Params::default());
             let object_sdf = crate::geometry::object_sdf(mesh);
             let (raw, stats) = ik::run(
                 robot,
@@ -196,6 +250,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         }
     };
 
+    check_hand(&config.source, "hand recovery (4-5)", &hand)?;
     let mut out = assemble(demo, &object, &hand, &config.name);
     out.scene = Some(config.scene.clone());
     out.barriers = config.barriers.clone();
@@ -215,6 +270,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     };
     if let Some(p) = &physics {
         timing.insert("physics".into(), p.timing_s.total);
+        check_physics(&config.source, p)?;
     }
 
     // Stages 7-8: metrics and report.
@@ -278,6 +334,8 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             }
         }
     }
+    check_metrics(&config.source, &report, &frames)?;
+    report.provenance = Some(provenance);
     timing.insert("metrics".into(), clock.elapsed().as_secs_f64());
     report.timing_s = timing;
     Ok(WarpRun {
@@ -490,7 +548,9 @@ pub fn validate(
         }
     }
     let mesh = Mesh::load(&demo.object.mesh, nalgebra::Vector3::repeat(1.0), limits)?;
+    check_physics_work(limits, demo_path, demo.frames.len(), demo.fps, params)?;
     let report_p = physics::validate(&robot, &demo, &scene, &barriers, &mesh, params, limits)?;
+    check_physics(demo_path, &report_p)?;
     let dc = metrics::contact_distance_per_frame_mm(&robot, &demo);
     let d_c = metrics::d_c_mm(&dc);
     let d_wo = metrics::d_wo_mm(&demo);
@@ -507,7 +567,7 @@ pub fn validate(
         })
         .unwrap_or(0.0);
     let segment = demo.contact_segment();
-    let frames = (0..n)
+    let frames: Vec<FrameRow> = (0..n)
         .map(|t| FrameRow {
             physics_position_error_mm: report_p.per_frame.position_error_mm.get(t).copied(),
             physics_rotation_error_deg: report_p.per_frame.rotation_error_deg.get(t).copied(),
@@ -551,5 +611,167 @@ pub fn validate(
         timing_s,
         ..Report::default()
     };
+    check_metrics(demo_path, &report, &frames)?;
+    let mut provenance = Provenance::new();
+    provenance.input("demo", demo_path);
+    provenance.input("scene", &scene_path);
+    provenance.input("robot", &demo.robot);
+    provenance.input("mesh", &demo.object.mesh);
+    provenance.parameters("barriers", &barriers);
+    provenance.parameters("physics", params);
+    provenance.parameters("limits", limits);
+    let report = Report {
+        provenance: Some(provenance),
+        ..report
+    };
     Ok((report, frames))
+}
+
+/// Refuses a replay whose step count (frames × steps per frame at `params.max_dt_s`) is over
+/// [`Limits::max_physics_steps`], before any step: the count grows as 1 / fps.
+fn check_physics_work(
+    limits: &Limits,
+    path: &Path,
+    frames: usize,
+    fps: f64,
+    params: &physics::Params,
+) -> Result<()> {
+    // The rule of the replay: the fewest equal steps per frame not longer than max_dt_s.
+    let per_frame = ((1.0 / fps) / params.max_dt_s).ceil().max(1.0);
+    let per_frame = if per_frame.is_finite() && per_frame < u64::MAX as f64 {
+        per_frame as u64
+    } else {
+        u64::MAX
+    };
+    limits.check_physics_steps(path, frames as u64, per_frame)
+}
+
+/// The first non-finite value of `values` (`(frame, quantity, value)`) as [`Error::NonFinite`].
+fn first_non_finite(
+    path: &Path,
+    stage: &'static str,
+    values: impl IntoIterator<Item = (Option<usize>, &'static str, f64)>,
+) -> Result<()> {
+    match values.into_iter().find(|(_, _, v)| !v.is_finite()) {
+        None => Ok(()),
+        Some((frame, quantity, value)) => Err(Error::NonFinite {
+            path: path.to_path_buf(),
+            stage,
+            frame,
+            quantity,
+            value,
+        }),
+    }
+}
+
+/// Stage boundary check: every object position and orientation finite.
+fn check_path(path: &Path, stage: &'static str, object: &ObjectPath) -> Result<()> {
+    first_non_finite(
+        path,
+        stage,
+        (0..object.len()).flat_map(|t| {
+            let p = object.positions[t];
+            let q = object.rotations[t].coords;
+            [p.x, p.y, p.z]
+                .map(|v| (Some(t), "object position", v))
+                .into_iter()
+                .chain([q.x, q.y, q.z, q.w].map(|v| (Some(t), "object orientation", v)))
+        }),
+    )
+}
+
+/// Stage boundary check: every wrist pose and joint value finite.
+fn check_hand(path: &Path, stage: &'static str, hand: &HandPath) -> Result<()> {
+    first_non_finite(
+        path,
+        stage,
+        hand.wrists.iter().enumerate().flat_map(|(t, w)| {
+            let p = w.translation.vector;
+            let q = w.rotation.coords;
+            [p.x, p.y, p.z]
+                .map(|v| (Some(t), "wrist position", v))
+                .into_iter()
+                .chain([q.x, q.y, q.z, q.w].map(|v| (Some(t), "wrist orientation", v)))
+        }),
+    )?;
+    let dof = hand.dof.max(1);
+    first_non_finite(
+        path,
+        stage,
+        hand.joints
+            .iter()
+            .enumerate()
+            .map(|(k, &v)| (Some(k / dof), "joint value", v)),
+    )
+}
+
+/// Stage boundary check: the replay's per-frame tracking errors finite.
+fn check_physics(path: &Path, p: &physics::PhysicsReport) -> Result<()> {
+    let pf = &p.per_frame;
+    first_non_finite(
+        path,
+        "physics replay (6)",
+        pf.position_error_mm
+            .iter()
+            .enumerate()
+            .map(|(t, &v)| (Some(t), "simulated object position error [mm]", v))
+            .chain(
+                pf.rotation_error_deg
+                    .iter()
+                    .enumerate()
+                    .map(|(t, &v)| (Some(t), "simulated object rotation error [deg]", v)),
+            ),
+    )
+}
+
+/// Stage boundary check: every metric of the report and every per-frame row finite.
+fn check_metrics(path: &Path, report: &Report, frames: &[FrameRow]) -> Result<()> {
+    let m = &report.metrics;
+    let c = &report.constraints;
+    let stage = "metrics (7)";
+    first_non_finite(
+        path,
+        stage,
+        [
+            (None, "D_WO original [mm]", m.d_wo_mm.original),
+            (None, "D_WO [mm]", m.d_wo_mm.warped),
+            (None, "D_C original [mm]", m.d_c_mm.original),
+            (None, "D_C before smoothing [mm]", m.d_c_mm.unsmoothed),
+            (None, "D_C [mm]", m.d_c_mm.warped),
+            (None, "object path length ratio", m.plr_object),
+            (None, "wrist path length ratio", m.plr_hand),
+            (None, "timewarp discrepancy", m.timewarp_discrepancy),
+            (None, "largest waypoint error [mm]", c.max_waypoint_error_mm),
+            (None, "object radius [mm]", c.object_radius_mm),
+            (None, "largest push-out [mm]", c.pushout_max_mm),
+        ],
+    )?;
+    first_non_finite(
+        path,
+        stage,
+        frames.iter().flat_map(|r| {
+            let t = Some(r.frame);
+            [
+                (t, "object position", r.object_x),
+                (t, "object position", r.object_y),
+                (t, "object position", r.object_z),
+                (t, "wrist position", r.wrist_x),
+                (t, "wrist position", r.wrist_y),
+                (t, "wrist position", r.wrist_z),
+                (t, "D_C [mm]", r.d_c_mm.unwrap_or(0.0)),
+                (
+                    t,
+                    "D_C before smoothing [mm]",
+                    r.d_c_unsmoothed_mm.unwrap_or(0.0),
+                ),
+            ]
+        }),
+    )
+}
+
+/// The hand-recovery stage boundary check, for callers holding a [`HandPath`] of their own:
+/// the first NaN or infinite wrist coordinate or joint value as [`Error::NonFinite`] with its
+/// output frame; `path` names the run's config.
+pub fn check_hand_path(path: &Path, hand: &HandPath) -> Result<()> {
+    check_hand(path, "hand recovery (4-5)", hand)
 }

@@ -12,7 +12,6 @@
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::io::Read;
 use std::path::Path;
 
 use nalgebra::{Point3, Vector3};
@@ -101,22 +100,12 @@ impl Mesh {
                 ),
             ));
         }
-        let size = std::fs::metadata(path)
-            .map_err(|e| Error::read(path, e))?
-            .len();
-        if size > limits.max_mesh_bytes {
-            return Err(Error::TooLarge {
-                path: path.to_path_buf(),
-                what: "the mesh file size in bytes",
-                found: size,
-                limit: limits.max_mesh_bytes,
-                flag: "--max-file-mb",
-            });
-        }
+        // Special files are refused and the byte cap holds while reading (`Limits::read_file`).
+        let bytes = limits.read_file(path, limits.max_mesh_bytes, "--max-file-mb")?;
         let mut mesh = if ext == "obj" {
-            read_obj(path, limits)?
+            read_obj(path, &bytes, limits)?
         } else {
-            read_stl(path, size, limits)?
+            read_stl(path, bytes, limits)?
         };
         mesh.validate(path)?;
         if scale != Vector3::repeat(1.0) {
@@ -319,8 +308,23 @@ fn too_many_triangles(path: &Path, found: u64, limits: &Limits) -> Error {
 /// not opened). Every object/group becomes part of one mesh; equal positions are merged so
 /// that closedness is judged across groups. The triangle count is checked after parsing
 /// (the file size bounds it beforehand: each `f` line takes at least 6 bytes).
-fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
+fn read_obj(path: &Path, bytes: &[u8], limits: &Limits) -> Result<Mesh> {
+    // Count the triangles of the `f` lines (a polygon of k corners makes k - 2) before tobj
+    // parses anything.
+    let counted: u64 = bytes
+        .split(|&c| c == b'\n')
+        .filter(|l| l.starts_with(b"f ") || l.starts_with(b"f\t"))
+        .map(|l| {
+            let corners = l[1..]
+                .split(|c| c.is_ascii_whitespace())
+                .filter(|t| !t.is_empty())
+                .count();
+            corners.saturating_sub(2) as u64
+        })
+        .sum();
+    if counted > limits.max_mesh_triangles {
+        return Err(too_many_triangles(path, counted, limits));
+    }
     // `..Default::default()` covers the fields behind tobj's optional features.
     #[allow(clippy::needless_update)]
     let options = tobj::LoadOptions {
@@ -331,7 +335,7 @@ fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
         ..Default::default()
     };
     // Materials do not matter for collision: an empty material list for any `mtllib`.
-    let (models, _) = tobj::load_obj_buf(&mut bytes.as_slice(), &options, |_| {
+    let (models, _) = tobj::load_obj_buf(&mut &bytes[..], &options, |_| {
         Ok((Vec::new(), Default::default()))
     })
     .map_err(|e| Error::Parse {
@@ -377,12 +381,11 @@ fn read_obj(path: &Path, limits: &Limits) -> Result<Mesh> {
 ///
 /// Binary STL layout: 80-byte header, `u32` little-endian triangle count, then 50 bytes
 /// per triangle (normal, three vertices as `f32`, 2 attribute bytes).
-fn read_stl(path: &Path, size: u64, limits: &Limits) -> Result<Mesh> {
-    let mut file = std::fs::File::open(path).map_err(|e| Error::read(path, e))?;
+fn read_stl(path: &Path, mut bytes: Vec<u8>, limits: &Limits) -> Result<Mesh> {
+    let size = bytes.len() as u64;
     let mut head = [0u8; 84];
     let binary_count = if size >= 84 {
-        file.read_exact(&mut head)
-            .map_err(|e| Error::read(path, e))?;
+        head.copy_from_slice(&bytes[..84]);
         let n = u32::from_le_bytes([head[80], head[81], head[82], head[83]]) as u64;
         (84 + 50 * n == size).then_some(n)
     } else {
@@ -405,10 +408,6 @@ fn read_stl(path: &Path, size: u64, limits: &Limits) -> Result<Mesh> {
             ),
         ));
     }
-    let mut bytes = Vec::with_capacity(size as usize);
-    bytes.extend_from_slice(if size >= 84 { &head[..] } else { &[] });
-    file.read_to_end(&mut bytes)
-        .map_err(|e| Error::read(path, e))?;
     if binary_count.is_some() && bytes.starts_with(b"solid ") {
         // Many binary STLs start their header with "solid "; hide it from stl_io's ASCII probe.
         bytes[0] = b'S';

@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::json::{self, FieldCheck};
 use super::scene::{Role, Scene};
 use crate::hand::ik::{Objective, WarmStart};
+use crate::limits::MAX_JOINT_ABS;
 use crate::warp::ObjectParams;
 use crate::warp::barrier::{self, PushoutMode};
 use crate::warp::retime::{self, RetimeMode};
@@ -174,7 +175,7 @@ pub struct WarpConfig {
 impl WarpConfig {
     /// Reads and validates a config file (the demo and scene are not loaded here).
     pub fn load(path: &Path, limits: &Limits) -> Result<WarpConfig> {
-        let file: ConfigFile = json::read_json(path, limits)?;
+        let file: ConfigFile = json::read_json_format(path, limits, CONFIG_FORMAT)?;
         WarpConfig::from_file(file, path)
     }
 
@@ -191,9 +192,10 @@ impl WarpConfig {
                 ),
             ));
         }
+        check_output_name(path, "name", &file.name)?;
         let mut waypoints = Vec::with_capacity(file.waypoints.len());
         for (j, w) in file.waypoints.iter().enumerate() {
-            let position = c.vec3(|| format!("waypoints[{j}].position"), w.position)?;
+            let position = c.world_vec3(|| format!("waypoints[{j}].position"), w.position)?;
             let rotation = match w.rotation {
                 None => UnitQuaternion::identity(),
                 Some(r) => axis_angle(&c, j, r)?,
@@ -234,18 +236,39 @@ impl WarpConfig {
         }
         let start = file
             .start
-            .map(|s| c.vec3(|| "start".into(), s))
+            .map(|s| c.world_vec3(|| "start".into(), s))
             .transpose()?;
-        let end = file.end.map(|s| c.vec3(|| "end".into(), s)).transpose()?;
+        let end = file
+            .end
+            .map(|s| c.world_vec3(|| "end".into(), s))
+            .transpose()?;
         let p = &file.params;
-        c.positive(|| "params.alpha_m".into(), p.alpha_m, "m")?;
-        c.positive(|| "params.threshold_mm".into(), p.threshold_mm, "mm")?;
-        c.positive(|| "params.margin_m".into(), p.margin_m, "m")?;
-        c.positive(|| "params.steepness".into(), p.steepness, "exponent")?;
-        c.positive(|| "params.pushout_step_m".into(), p.pushout_step_m, "m")?;
-        c.non_negative(
+        // Ranges: beyond them a parameter only makes sense as a typo, and some set work
+        // (the push-out walks its ray in steps of `pushout_step_m`).
+        c.in_range(|| "params.alpha_m".into(), p.alpha_m, (1e-6, 1e3), "m")?;
+        c.in_range(
+            || "params.threshold_mm".into(),
+            p.threshold_mm,
+            (1e-3, 1e4),
+            "mm",
+        )?;
+        c.in_range(|| "params.margin_m".into(), p.margin_m, (1e-6, 10.0), "m")?;
+        c.in_range(
+            || "params.steepness".into(),
+            p.steepness,
+            (1e-3, 100.0),
+            "exponent",
+        )?;
+        c.in_range(
+            || "params.pushout_step_m".into(),
+            p.pushout_step_m,
+            (1e-5, 1.0),
+            "m",
+        )?;
+        c.in_range(
             || "params.penetration_weight".into(),
             p.penetration_weight,
+            (0.0, 1e6),
             "weight",
         )?;
         if let Some(e) = p.end_t_new {
@@ -350,7 +373,12 @@ impl WarpConfig {
 
 fn axis_angle(c: &FieldCheck, j: usize, r: AxisAngleJson) -> Result<UnitQuaternion<f64>> {
     let axis = c.vec3(|| format!("waypoints[{j}].rotation.axis"), r.axis)?;
-    let angle = c.finite(|| format!("waypoints[{j}].rotation.angle"), r.angle)?;
+    let angle = c.in_range(
+        || format!("waypoints[{j}].rotation.angle"),
+        r.angle,
+        (-MAX_JOINT_ABS, MAX_JOINT_ABS),
+        "rad",
+    )?;
     if angle == 0.0 {
         return Ok(UnitQuaternion::identity());
     }
@@ -380,4 +408,37 @@ fn frame_index(c: &FieldCheck, field: impl Fn() -> String, v: f64, which: &str) 
         ));
     }
     Ok(v as usize)
+}
+
+/// Longest output name: a config's `name` or a batch item's (the warped demonstration is
+/// `<name>.demo.json`, a batch item's folder `<name>`).
+pub const MAX_NAME_CHARS: usize = 128;
+
+/// Checks that `name` is a file name and not a path: not empty, at most [`MAX_NAME_CHARS`]
+/// characters, no `/`, `\\` or NUL, not `.` or `..`, no leading `.` (hidden files and our
+/// temporaries), no control characters. `field` names it in the error.
+pub fn check_output_name(path: &Path, field: &str, name: &str) -> Result<()> {
+    let problem = if name.is_empty() {
+        Some("is empty".to_string())
+    } else if name.chars().count() > MAX_NAME_CHARS {
+        Some(format!("has {} characters", name.chars().count()))
+    } else if name.contains(['/', '\\']) {
+        Some("contains a path separator".to_string())
+    } else if name.starts_with('.') {
+        Some("starts with '.' (a hidden file, or '..')".to_string())
+    } else if name.chars().any(char::is_control) {
+        Some("contains a control character".to_string())
+    } else {
+        None
+    };
+    match problem {
+        None => Ok(()),
+        Some(p) => Err(Error::invalid(
+            path,
+            field,
+            format!(
+                "{name:?} {p}; expected a plain file name of 1 to {MAX_NAME_CHARS} characters without slashes, not starting with '.' (it names the output files)"
+            ),
+        )),
+    }
 }

@@ -14,6 +14,7 @@ use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 use super::json::{self, FieldCheck};
+use crate::limits::{FPS_RANGE_HZ, MASS_RANGE_KG, MAX_JOINT_ABS};
 use crate::{Error, Limits, Result};
 
 /// The `format` value of a demonstration file.
@@ -163,7 +164,7 @@ impl Demo {
     /// Reads and validates a demonstration file. Does not load the robot: see
     /// [`Demo::check_robot`].
     pub fn load(path: &Path, limits: &Limits) -> Result<Demo> {
-        let file: DemoFile = json::read_json(path, limits)?;
+        let file: DemoFile = json::read_json_format(path, limits, DEMO_FORMAT)?;
         Demo::from_file(file, path, limits)
     }
 
@@ -180,7 +181,7 @@ impl Demo {
                 ),
             ));
         }
-        c.positive(|| "fps".into(), file.fps, "frames per second")?;
+        c.in_range(|| "fps".into(), file.fps, FPS_RANGE_HZ, "frames per second")?;
         let n = file.frames.len();
         if n == 0 {
             return Err(Error::invalid(
@@ -198,7 +199,12 @@ impl Demo {
                 flag: "--max-frames",
             });
         }
-        c.positive(|| "object.mass".into(), file.object.mass, "kg")?;
+        c.in_range(
+            || "object.mass".into(),
+            file.object.mass,
+            MASS_RANGE_KG,
+            "kg",
+        )?;
         let robot = json::resolve_relative(path, &file.robot);
         require_file(path, "robot", &robot)?;
         let mesh = json::resolve_relative(path, &file.object.mesh);
@@ -364,7 +370,12 @@ fn validate_frame(
         ));
     }
     for (j, &v) in f.joints.iter().enumerate() {
-        c.finite(|| format!("frames[{i}].joints[{j}]"), v)?;
+        c.in_range(
+            || format!("frames[{i}].joints[{j}]"),
+            v,
+            (-MAX_JOINT_ABS, MAX_JOINT_ABS),
+            "rad, or m for a prismatic joint",
+        )?;
     }
     if f.contacts.len() as u64 > limits.max_contacts_per_frame {
         return Err(Error::TooLarge {
@@ -377,11 +388,11 @@ fn validate_frame(
     }
     let mut contacts = Vec::with_capacity(f.contacts.len());
     for (k, ct) in f.contacts.into_iter().enumerate() {
-        let hand_point = c.point3(
+        let hand_point = c.local_point3(
             || format!("frames[{i}].contacts[{k}].hand_point"),
             ct.hand_point,
         )?;
-        let object_point = c.point3(
+        let object_point = c.local_point3(
             || format!("frames[{i}].contacts[{k}].object_point"),
             ct.object_point,
         )?;
@@ -407,13 +418,14 @@ fn validate_frame(
 }
 
 fn pose(c: &FieldCheck, i: usize, which: &str, p: &PoseJson) -> Result<Isometry3<f64>> {
-    let t = c.vec3(|| format!("frames[{i}].{which}.position"), p.position)?;
+    let t = c.world_vec3(|| format!("frames[{i}].{which}.position"), p.position)?;
     let r: UnitQuaternion<f64> =
         c.quaternion(|| format!("frames[{i}].{which}.orientation"), p.orientation)?;
     Ok(Isometry3::from_parts(Translation3::from(t), r))
 }
 
-fn require_file(path: &Path, field: &str, target: &Path) -> Result<()> {
+/// Checks that `target`, named by `field` of `path`, is a file, naming the field if not.
+pub(crate) fn require_file(path: &Path, field: &str, target: &Path) -> Result<()> {
     match std::fs::metadata(target) {
         Ok(m) if m.is_file() => Ok(()),
         Ok(_) => Err(Error::invalid(

@@ -20,30 +20,60 @@ pub use crate::math::rotation::QUAT_NORM_TOLERANCE;
 
 /// Reads `path` and deserializes it, checking the size first and naming the failing field.
 pub fn read_json<T: DeserializeOwned>(path: &Path, limits: &Limits) -> Result<T> {
-    let bytes = read_limited(path, limits.max_file_bytes, "--max-file-mb")?;
+    let bytes = read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
     parse_json(path, &bytes)
 }
 
-/// Reads a whole file after checking its size against `limit` bytes.
-pub fn read_limited(path: &Path, limit: u64, flag: &'static str) -> Result<Vec<u8>> {
-    let meta = std::fs::metadata(path).map_err(|e| Error::read(path, e))?;
-    if meta.is_dir() {
-        return Err(Error::invalid(
-            path,
-            "(file)",
-            "is a directory; expected a file",
-        ));
+/// Reads a whole file of at most `limit` bytes, refusing special files (see
+/// [`Limits::read_file`]).
+pub fn read_limited(
+    path: &Path,
+    limits: &Limits,
+    limit: u64,
+    flag: &'static str,
+) -> Result<Vec<u8>> {
+    limits.read_file(path, limit, flag)
+}
+
+/// The formats of our files and what each is, for "this is a config, not a demonstration".
+const KNOWN_FORMATS: [(&str, &str); 4] = [
+    ("dexwarp.demo/1", "a demonstration"),
+    ("dexwarp.config/1", "a warp config"),
+    ("dexwarp.scene/1", "a scene"),
+    ("dexwarp.report/1", "a report"),
+];
+
+/// [`read_json`] for a file whose `format` must be `expected`: when the typed parse fails and
+/// the file is another of our formats, the error says which (a config given where a
+/// demonstration is expected), rather than naming the first missing field.
+pub fn read_json_format<T: DeserializeOwned>(
+    path: &Path,
+    limits: &Limits,
+    expected: &str,
+) -> Result<T> {
+    let bytes = read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
+    parse_json(path, &bytes).map_err(|err| wrong_format(path, &bytes, expected).unwrap_or(err))
+}
+
+/// The error for a file of another known format than `expected`, if it is one.
+fn wrong_format(path: &Path, bytes: &[u8], expected: &str) -> Option<Error> {
+    #[derive(serde::Deserialize)]
+    struct FormatOnly {
+        format: String,
     }
-    if meta.len() > limit {
-        return Err(Error::TooLarge {
-            path: path.to_path_buf(),
-            what: "the file size in bytes",
-            found: meta.len(),
-            limit,
-            flag,
-        });
+    let found = serde_json::from_slice::<FormatOnly>(bytes).ok()?.format;
+    if found == expected {
+        return None;
     }
-    std::fs::read(path).map_err(|e| Error::read(path, e))
+    let what = |f: &str| KNOWN_FORMATS.iter().find(|(k, _)| *k == f).map(|(_, w)| *w);
+    let (found_what, expected_what) = (what(&found)?, what(expected).unwrap_or("another file"));
+    Some(Error::invalid(
+        path,
+        "format",
+        format!(
+            "is {found:?}: this file is {found_what}; expected {expected_what} ({expected:?}) here"
+        ),
+    ))
 }
 
 /// Deserializes JSON text, mapping errors to [`Error::Parse`] with a JSON path or a position.
@@ -144,6 +174,15 @@ pub fn resolve_relative(file: &Path, written: &Path) -> PathBuf {
     }
 }
 
+/// A number as a person reads it: plain when moderate, `1e-300` style when tiny or huge.
+fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// Semantic checks on parsed values, each naming the file and the JSON path.
 #[derive(Debug, Clone, Copy)]
 pub struct FieldCheck<'a> {
@@ -203,6 +242,92 @@ impl<'a> FieldCheck<'a> {
                 self.path,
                 field(),
                 format!("is {v:?}; expected three finite numbers (metres)"),
+            ))
+        }
+    }
+
+    /// A world position: three finite coordinates within
+    /// [`WORLD_HALF_EXTENT_M`](crate::limits::WORLD_HALF_EXTENT_M) of the origin.
+    pub fn world_vec3(&self, field: impl Fn() -> String, v: [f64; 3]) -> Result<Vector3<f64>> {
+        self.bounded_vec3(
+            field,
+            v,
+            crate::limits::WORLD_HALF_EXTENT_M,
+            "the world size",
+        )
+    }
+
+    /// A point in a link or object frame: three finite coordinates within
+    /// [`MAX_LOCAL_OFFSET_M`](crate::limits::MAX_LOCAL_OFFSET_M) of the frame's origin.
+    pub fn local_point3(&self, field: impl Fn() -> String, v: [f64; 3]) -> Result<Point3<f64>> {
+        self.bounded_vec3(
+            field,
+            v,
+            crate::limits::MAX_LOCAL_OFFSET_M,
+            "the largest offset in a link or object frame",
+        )
+        .map(Point3::from)
+    }
+
+    fn bounded_vec3(
+        &self,
+        field: impl Fn() -> String,
+        v: [f64; 3],
+        bound: f64,
+        what: &str,
+    ) -> Result<Vector3<f64>> {
+        let v = self.vec3(&field, v)?;
+        if v.iter().any(|x| x.abs() > bound) {
+            return Err(Error::invalid(
+                self.path,
+                field(),
+                format!(
+                    "is [{}, {}, {}]; expected coordinates within ±{bound} m ({what})",
+                    num(v.x),
+                    num(v.y),
+                    num(v.z)
+                ),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// A scene size [m]: a finite number > 0 no larger than the world
+    /// (2 × [`WORLD_HALF_EXTENT_M`](crate::limits::WORLD_HALF_EXTENT_M)).
+    pub fn size(&self, field: impl Fn() -> String, v: f64) -> Result<f64> {
+        self.positive(&field, v, "m")?;
+        let world = 2.0 * crate::limits::WORLD_HALF_EXTENT_M;
+        if v > world {
+            return Err(Error::invalid(
+                self.path,
+                field(),
+                format!(
+                    "is {} m; expected at most {world} m (the world size)",
+                    num(v)
+                ),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// A finite number in `[lo, hi]`.
+    pub fn in_range(
+        &self,
+        field: impl FnOnce() -> String,
+        v: f64,
+        (lo, hi): (f64, f64),
+        unit: &str,
+    ) -> Result<f64> {
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(v)
+        } else {
+            Err(Error::invalid(
+                self.path,
+                field(),
+                format!(
+                    "is {}; expected a number from {lo} to {hi} ({unit})",
+                    num(v)
+                ),
             ))
         }
     }

@@ -8,6 +8,7 @@ pub mod bind;
 pub mod config;
 pub mod demo;
 pub mod json;
+pub mod provenance;
 pub mod report;
 pub mod scene;
 

@@ -126,6 +126,13 @@ pub struct Report {
     pub physics: Option<PhysicsSummary>,
     /// Wall time of each stage [s].
     pub timing_s: BTreeMap<String, f64>,
+    /// Tool, input files with content hashes, and every parameter in effect.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<crate::model::provenance::Provenance>,
+    /// SHA-256 of each other file of this run's output set, by file name (the report is
+    /// written last; `filter` and `batch` trust a report only when these match).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub outputs: BTreeMap<String, String>,
     /// Set when the item failed; the other fields are then partial.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,

@@ -12,6 +12,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 use super::json::{self, FieldCheck};
+use crate::limits::WORLD_HALF_EXTENT_M;
 use crate::{Error, Limits, Result};
 
 /// The `format` value of a scene file.
@@ -119,7 +120,7 @@ pub struct Scene {
 impl Scene {
     /// Reads and validates a scene file.
     pub fn load(path: &Path, limits: &Limits) -> Result<Scene> {
-        let file: SceneFile = json::read_json(path, limits)?;
+        let file: SceneFile = json::read_json_format(path, limits, SCENE_FORMAT)?;
         Scene::from_file(file, path)
     }
 
@@ -146,7 +147,7 @@ impl Scene {
                     format!("{:?} is used twice; item names must be unique", it.name),
                 ));
             }
-            let t = c.vec3(|| format!("items[{k}].pose.position"), it.pose.position)?;
+            let t = c.world_vec3(|| format!("items[{k}].pose.position"), it.pose.position)?;
             let r: UnitQuaternion<f64> = c.quaternion(
                 || format!("items[{k}].pose.orientation"),
                 it.pose.orientation,
@@ -155,27 +156,39 @@ impl Scene {
             let shape = match it.shape {
                 ShapeJson::Box { size } => {
                     for (a, &s) in size.iter().enumerate() {
-                        c.positive(|| format!("items[{k}].shape.size[{a}]"), s, "m")?;
+                        c.size(|| format!("items[{k}].shape.size[{a}]"), s)?;
                     }
                     ShapeJson::Box { size }
                 }
                 ShapeJson::Sphere { radius } => {
-                    c.positive(|| f("radius"), radius, "m")?;
+                    c.size(|| f("radius"), radius)?;
                     ShapeJson::Sphere { radius }
                 }
                 ShapeJson::Capsule { radius, length } => {
-                    c.positive(|| f("radius"), radius, "m")?;
+                    c.size(|| f("radius"), radius)?;
                     c.non_negative(|| f("length"), length, "m")?;
+                    c.in_range(
+                        || f("length"),
+                        length,
+                        (0.0, 2.0 * WORLD_HALF_EXTENT_M),
+                        "m",
+                    )?;
                     ShapeJson::Capsule { radius, length }
                 }
                 ShapeJson::Cylinder { radius, length } => {
-                    c.positive(|| f("radius"), radius, "m")?;
-                    c.positive(|| f("length"), length, "m")?;
+                    c.size(|| f("radius"), radius)?;
+                    c.size(|| f("length"), length)?;
                     ShapeJson::Cylinder { radius, length }
                 }
                 ShapeJson::Mesh { path: p, scale } => {
                     for (a, &s) in scale.iter().enumerate() {
                         c.positive(|| format!("items[{k}].shape.scale[{a}]"), s, "factor")?;
+                        c.in_range(
+                            || format!("items[{k}].shape.scale[{a}]"),
+                            s,
+                            (1e-6, 1e6),
+                            "factor",
+                        )?;
                     }
                     let resolved = json::resolve_relative(path, &p);
                     if !resolved.is_file() {

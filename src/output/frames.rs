@@ -74,13 +74,16 @@ impl FrameRow {
 
 /// Writes rows as CSV atomically.
 pub fn write_csv(path: &Path, rows: &[FrameRow]) -> Result<()> {
+    write_atomic(path, &csv_bytes(path, rows)?)
+}
+
+/// The CSV text of `rows` (`path` names the file in errors).
+pub fn csv_bytes(path: &Path, rows: &[FrameRow]) -> Result<Vec<u8>> {
     let mut w = csv::Writer::from_writer(Vec::new());
     for r in rows {
         w.serialize(r)
             .map_err(|e| Error::write(path, std::io::Error::other(e)))?;
     }
-    let bytes = w
-        .into_inner()
-        .map_err(|e| Error::write(path, std::io::Error::other(e.to_string())))?;
-    write_atomic(path, &bytes)
+    w.into_inner()
+        .map_err(|e| Error::write(path, std::io::Error::other(e.to_string())))
 }

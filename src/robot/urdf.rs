@@ -27,17 +27,15 @@ impl Robot {
     ///
     /// The file size is checked against `limits.max_file_bytes` before it is read.
     pub fn from_urdf_file(path: &Path, limits: &Limits) -> Result<Robot> {
-        let meta = std::fs::metadata(path).map_err(|e| Error::read(path, e))?;
-        if meta.len() > limits.max_file_bytes {
-            return Err(Error::TooLarge {
-                path: path.to_path_buf(),
-                what: "the URDF file size in bytes",
-                found: meta.len(),
-                limit: limits.max_file_bytes,
-                flag: "--max-file-mb",
-            });
-        }
-        let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+        let bytes = limits.read_file(path, limits.max_file_bytes, "--max-file-mb")?;
+        let text = String::from_utf8(bytes).map_err(|e| Error::Parse {
+            path: path.to_path_buf(),
+            field: "URDF".into(),
+            message: format!(
+                "is not UTF-8 text (invalid byte at offset {}); expected a URDF XML document",
+                e.utf8_error().valid_up_to()
+            ),
+        })?;
         let base = path.parent().unwrap_or(Path::new("."));
         Robot::from_urdf_str(&text, base, path, limits)
     }
@@ -59,6 +57,7 @@ impl Robot {
                 flag: "--max-file-mb",
             });
         }
+        prescan_xml(text, source, limits)?;
         let urdf = urdf_rs::read_from_string(text).map_err(|e| Error::Parse {
             path: source.to_path_buf(),
             field: "URDF".into(),
@@ -103,6 +102,115 @@ impl Robot {
             }
         }
     }
+}
+
+/// Counts `<link>` and `<joint>` elements and the element nesting depth of a URDF text in one
+/// linear pass, without building anything, and refuses the text when a count is over
+/// [`Limits::max_links`] or the depth over [`Limits::max_xml_depth`]. It runs before the XML
+/// parser, whose work and recursion grow with both: 100,000 links or 20,000 levels of
+/// nesting are refused in milliseconds (the depth as soon as it is passed, the counts after
+/// the whole text is counted).
+///
+/// The scan knows just enough XML to count right: comments, CDATA sections, processing
+/// instructions and declarations are skipped, `'`/`"` quoted attribute values may hold `>`,
+/// and `<x/>` opens and closes at once. Malformed text is left for the parser to report.
+fn prescan_xml(text: &str, source: &Path, limits: &Limits) -> Result<()> {
+    let b = text.as_bytes();
+    let (mut links, mut joints, mut depth, mut deepest) = (0u64, 0u64, 0u64, 0u64);
+    let find = |from: usize, pat: &[u8]| {
+        b.get(from..)
+            .and_then(|rest| rest.windows(pat.len()).position(|w| w == pat))
+            .map(|k| from + k + pat.len())
+    };
+    let mut i = 0;
+    while let Some(k) = b
+        .get(i..)
+        .and_then(|rest| rest.iter().position(|&c| c == b'<'))
+    {
+        let at = i + k;
+        let rest = &b[at..];
+        let skip_to = if rest.starts_with(b"<!--") {
+            find(at + 4, b"-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            find(at + 9, b"]]>")
+        } else if rest.starts_with(b"<?") {
+            find(at + 2, b"?>")
+        } else if rest.starts_with(b"<!") {
+            find(at + 2, b">")
+        } else {
+            None
+        };
+        if rest.starts_with(b"<!") || rest.starts_with(b"<?") {
+            match skip_to {
+                Some(next) => {
+                    i = next;
+                    continue;
+                }
+                None => break,
+            }
+        }
+        let closing = rest.get(1) == Some(&b'/');
+        let name_start = at + 1 + closing as usize;
+        let name_end = b[name_start..]
+            .iter()
+            .position(|c| c.is_ascii_whitespace() || *c == b'>' || *c == b'/')
+            .map_or(b.len(), |n| name_start + n);
+        // The end of the tag, past quoted attribute values.
+        let mut j = name_end;
+        let mut quote = None;
+        while j < b.len() {
+            match (quote, b[j]) {
+                (None, b'"' | b'\'') => quote = Some(b[j]),
+                (Some(q), c) if c == q => quote = None,
+                (None, b'>') => break,
+                _ => {}
+            }
+            j += 1;
+        }
+        if j >= b.len() {
+            break;
+        }
+        let self_closing = b[j - 1] == b'/';
+        if closing {
+            depth = depth.saturating_sub(1);
+        } else {
+            match &b[name_start..name_end] {
+                b"link" => links += 1,
+                b"joint" => joints += 1,
+                _ => {}
+            }
+            if !self_closing {
+                depth += 1;
+                deepest = deepest.max(depth);
+            }
+        }
+        if deepest > limits.max_xml_depth {
+            return Err(Error::TooLarge {
+                path: source.to_path_buf(),
+                what: "the XML element nesting depth",
+                found: deepest,
+                limit: limits.max_xml_depth,
+                flag: "--max-xml-depth",
+            });
+        }
+        i = j + 1;
+    }
+    // Counting to the end is linear and cheap; the message then gives the true count.
+    for (what, found) in [
+        ("the number of <link> elements", links),
+        ("the number of <joint> elements", joints),
+    ] {
+        if found > limits.max_links {
+            return Err(Error::TooLarge {
+                path: source.to_path_buf(),
+                what,
+                found,
+                limit: limits.max_links,
+                flag: "--max-links",
+            });
+        }
+    }
+    Ok(())
 }
 
 /// State of one load: where messages point and meshes already read.

@@ -1,6 +1,7 @@
 //! All integration tests in one binary (one link step on a 2-core machine).
 mod cli;
 mod fixtures;
+mod harden;
 mod html;
 mod ik;
 mod kinematics;

@@ -82,7 +82,7 @@ fn wrong_types_name_the_json_path() {
     let msg = error_after(|v| v["format"] = json!("dexwarp.config/1"));
     has(&msg, &["format", "dexwarp.demo/1"]);
     let msg = error_after(|v| v["fps"] = json!(0.0));
-    has(&msg, &["fps", "> 0"]);
+    has(&msg, &["fps", "from 0.1 to 10000"]);
 }
 
 #[test]
