@@ -6,6 +6,7 @@ mod ik;
 mod kinematics;
 mod model;
 mod physics;
+mod physics_regression;
 mod support;
 mod synth;
 mod warp;
