@@ -5,6 +5,7 @@ mod html;
 mod ik;
 mod kinematics;
 mod model;
+mod one_verdict;
 mod physics;
 mod physics_regression;
 mod support;
