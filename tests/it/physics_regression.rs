@@ -131,7 +131,7 @@ pub fn cases(dir: &Path) -> Vec<Case> {
             let options = Options {
                 hand: HandMethod::Baseline,
                 physics: None,
-                limits: limits,
+                limits,
                 ..Options::default()
             };
             let run = pipeline::warp(&inputs, &options).unwrap();
