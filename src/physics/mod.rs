@@ -59,6 +59,7 @@
 //! same report, wall times aside.
 
 mod checks;
+pub mod margin;
 pub mod object;
 pub mod params;
 mod replay;
@@ -71,6 +72,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+pub use margin::{Margin, margin};
 pub use object::{ObjectShape, ShapeMethod, object_shape};
 pub use params::{DecompositionParams, Params};
 pub use report::{

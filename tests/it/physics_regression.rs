@@ -288,3 +288,66 @@ fn physics_figures_match_the_captured_ones() {
     }
     assert!(bad.is_empty(), "physics figures moved:\n{}", bad.join("\n"));
 }
+
+/// The robustness margin of the six base demonstrations (36 replays: run on demand with
+/// `cargo test --test it margins_of_the_base -- --ignored --nocapture`). Each passes the
+/// nominal replay, so each gets all six conditions, the nominal first and passing, and a
+/// weakest condition that is one of the passing ones.
+#[test]
+#[ignore]
+fn margins_of_the_base_demonstrations() {
+    let limits = Limits::default();
+    let params = Params::default();
+    let margins: Vec<(String, dexwarp::physics::Margin)> = BASE_DEMOS
+        .par_iter()
+        .map(|n| {
+            let path = root().join(format!("scenes/demos/{n}.demo.json"));
+            let mut demo = Demo::load(&path, &limits).unwrap();
+            let robot = Robot::from_urdf_file(&demo.robot, &limits).unwrap();
+            demo.check_robot(&robot).unwrap();
+            let scene = Scene::load(demo.scene.as_ref().unwrap(), &limits).unwrap();
+            let mesh = Mesh::load(&demo.object.mesh, Vector3::repeat(1.0), &limits).unwrap();
+            let m = dexwarp::physics::margin(
+                &robot,
+                &demo,
+                &scene,
+                &demo.barriers,
+                &mesh,
+                &params,
+                &limits,
+            )
+            .unwrap();
+            (n.to_string(), m)
+        })
+        .collect();
+    for (name, m) in &margins {
+        let line: Vec<String> = m
+            .conditions
+            .iter()
+            .map(|c| {
+                format!(
+                    "μ×{} m×{}: {}",
+                    c.friction_scale,
+                    c.mass_scale,
+                    if c.passed { "pass" } else { "fail" }
+                )
+            })
+            .collect();
+        println!(
+            "{name}: {} (robust {}); {}",
+            m.sentence,
+            m.robust,
+            line.join(", ")
+        );
+        assert_eq!(m.conditions.len(), 6, "{name}");
+        assert!(m.conditions[0].passed, "{name}: nominal must pass");
+        let [mu, mass] = m.weakest.unwrap();
+        assert!(
+            m.conditions
+                .iter()
+                .any(|c| c.passed && c.friction == mu && c.mass_scale == mass),
+            "{name}: the weakest condition must be a passing one"
+        );
+        assert_eq!(m.robust, m.conditions.iter().all(|c| c.passed), "{name}");
+    }
+}
