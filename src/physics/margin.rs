@@ -5,9 +5,13 @@
 //! mass by `s_m ∈ {1, 1.5}` ([`FRICTION_SCALES`], [`MASS_SCALES`]), the five non-nominal
 //! pairs in parallel. Holding a weight `m·g` by friction needs a normal force of at least
 //! `m·g / μ`, so a condition is harder the larger its load ratio `s_m / s_μ`
-//! (1 for the nominal, 3 for `μ × 0.5` at `1.5 ×` mass). The margin is the passing
-//! condition of the largest load ratio (ties: the lower friction), e.g. "holds down to
-//! μ = 0.50 at 1.5x mass"; the trajectory is **robust** when it passes every condition.
+//! (1 for the nominal, 3 for `μ × 0.5` at `1.5 ×` mass). The margin is the hardest
+//! condition up to which every condition passes, in order of load ratio (ties: the higher
+//! friction first), e.g. "holds down to μ = 0.50 at 1.5x mass"; the trajectory is
+//! **robust** when it passes every condition. Measured on the six base demonstrations:
+//! five are robust; the apple (Allegro) fails at 1.5x mass with μ = 1 and 0.75 but passes
+//! at μ = 0.5 with 1.5x mass, so its margin is the nominal condition: a replay that close to
+//! the edge is not monotone in the load.
 //! A trajectory that fails the nominal replay gets no margin.
 
 use rayon::prelude::*;
@@ -101,16 +105,21 @@ pub fn margin(
             .map(|&(sf, sm)| run(sf, sm))
             .collect::<Result<Vec<_>>>()?,
     );
-    let weakest = conditions
+    // Conditions by load ratio (ties: the higher friction first); the margin is the last of
+    // the passing prefix, so a trajectory that fails at 1.5x mass but passes a harder
+    // condition by chance (a replay near the edge is chaotic) is not credited with it.
+    let load = |c: &Condition| c.mass_scale / c.friction_scale;
+    let mut order: Vec<&Condition> = conditions.iter().collect();
+    order.sort_by(|a, b| {
+        load(a)
+            .total_cmp(&load(b))
+            .then(b.friction_scale.total_cmp(&a.friction_scale))
+    });
+    let weakest = order
         .iter()
-        .filter(|c| c.passed)
-        .max_by(|a, b| {
-            let load = |c: &Condition| c.mass_scale / c.friction_scale;
-            load(a)
-                .total_cmp(&load(b))
-                .then(b.friction_scale.total_cmp(&a.friction_scale))
-        })
-        .expect("the nominal condition passed");
+        .take_while(|c| c.passed)
+        .last()
+        .expect("the nominal condition passed and has the smallest load");
     Ok(Margin {
         sentence: format!(
             "holds down to μ = {:.2} at {:.1}x mass",
