@@ -255,11 +255,12 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     out.scene = Some(config.scene.clone());
     out.barriers = config.barriers.clone();
 
-    // Stage 6: physics replay.
+    // Stage 6: physics replay, of the output as its file reads back, so `dexwarp validate`
+    // of the written file gives the same report (one verdict per trajectory file).
     let physics = match &options.physics {
         Some(params) => Some(physics::validate(
             robot,
-            &out,
+            &out.as_stored(&options.limits)?,
             scene,
             &config.barriers,
             mesh,

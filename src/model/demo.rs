@@ -348,6 +348,22 @@ impl Demo {
     pub fn save(&self, path: &Path) -> Result<()> {
         json::write_json_atomic(path, &self.to_file(path))
     }
+
+    /// The demonstration exactly as [`Demo::load`] reads back the file [`Demo::save`]
+    /// writes: the same JSON text, parsed by the same parser and checked by the same
+    /// loader, which renormalizes every quaternion (`q / ‖q‖`, which moves the last bits of
+    /// a quaternion whose computed norm is not exactly 1). So a replay of the returned demo
+    /// and `dexwarp validate` of the written file simulate the same poses to the bit.
+    /// Paths are written relative to [`Demo::source`]'s folder and resolved back from it.
+    pub fn as_stored(&self, limits: &Limits) -> Result<Demo> {
+        let path = &self.source;
+        let text = serde_json::to_vec_pretty(&self.to_file(path)).map_err(|e| Error::Parse {
+            path: path.clone(),
+            field: "(output)".into(),
+            message: e.to_string(),
+        })?;
+        Demo::from_file(json::parse_json(path, &text)?, path, limits)
+    }
 }
 
 fn validate_frame(

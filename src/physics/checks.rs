@@ -147,6 +147,17 @@ pub fn deepest(
     best
 }
 
+/// The deepest hand-object penetration [m] at one frame: `hand` the placed hand shapes,
+/// `object` the placed object parts (see [`deepest`]). One function so the measurement can
+/// be swapped without touching the rest of the checks.
+pub fn hand_object_depth(
+    hand: &[Placed<'_>],
+    object: &[Placed<'_>],
+    unsupported: &mut usize,
+) -> Option<(f64, usize, usize)> {
+    deepest(hand, object, unsupported)
+}
+
 /// Accumulates per-frame deepest penetrations into a [`Penetration`].
 #[derive(Debug, Default)]
 pub struct PenetrationAcc {
