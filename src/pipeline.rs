@@ -24,7 +24,7 @@ use crate::hand::{HandPath, baseline, smooth};
 use crate::math::convert::to_pose;
 use crate::metrics;
 use crate::model::report::{
-    Constraints, ContactDistance, IkSummary, Metrics, Pair, REPORT_FORMAT, Report,
+    Constraints, ContactDistance, IkSummary, Metrics, Pair, REPORT_FORMAT, Report, WorstFrame,
 };
 use crate::model::{Demo, Frame, Scene, WarpConfig};
 use crate::output::frames::FrameRow;
@@ -375,6 +375,10 @@ fn report(
     let dc_orig = metrics::d_c_mm(&metrics::contact_distance_per_frame_mm(robot, original));
     let dc_out = metrics::d_c_mm(dc_frames);
     let plan = &object.plan;
+    let stretched = metrics::stretched_frames(
+        &object.retime.timewarp,
+        plan.segment.start..=plan.t_end_new(),
+    );
     let min_clearance = if barriers.is_empty() {
         None
     } else {
@@ -406,6 +410,11 @@ fn report(
                 metrics::wrist_path_length(original),
             ),
             timewarp_discrepancy: object.retime.timewarp.discrepancy(),
+            timewarp_discrepancy_paper: Some(object.retime.stats.discrepancy_paper),
+            d_c_stretched_mm: metrics::d_c_over_mm(dc_frames, &stretched),
+            stretched_frames: stretched.len(),
+            d_c_worst: metrics::worst_frame(dc_frames)
+                .map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
         },
         constraints: Constraints {
             max_waypoint_error_mm: object.retime.stats.max_anchor_error_m * 1e3,
@@ -542,6 +551,9 @@ pub fn validate(
             plr_object: 1.0,
             plr_hand: 1.0,
             timewarp_discrepancy: discrepancy,
+            timewarp_discrepancy_paper: None,
+            d_c_worst: metrics::worst_frame(&dc).map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
+            ..Metrics::default()
         },
         constraints: Constraints {
             object_radius_mm: mesh.bounding_radius() * 1e3,

@@ -70,7 +70,9 @@ pub struct WarpParams {
     /// pass count was 1 (10 mm) and 3 (3.5 mm) with `previous`, 6 and 4 with `follow_object`
     /// (measured on one revision, before the teapot grasp was fixed).
     pub warm_start: WarmStart,
-    /// Timewarp rule: `chord` (the paper, default) or `speed`.
+    /// Timewarp rule: `chord` (default: constant speed per segment, resting frames keep time),
+    /// `paper` (chord length without a floor, as the paper's reference code; the built-in
+    /// configs use it) or `speed` (the demonstration's speed profile).
     pub retime: RetimeMode,
     /// Output frame of the end of the contact segment; by default the input's end shifted by
     /// the last waypoint's time shift.

@@ -43,8 +43,34 @@ pub struct Metrics {
     pub plr_object: f64,
     /// Path length ratio of the wrist.
     pub plr_hand: f64,
-    /// Timewarp discrepancy (0 = uniform timing).
+    /// Timewarp discrepancy, our definition (0 = uniform timing): every input frame, output
+    /// time normalized by the output length.
     pub timewarp_discrepancy: f64,
+    /// Timewarp discrepancy as the paper's reference code computes it: its per-segment
+    /// chord-length "contact timewarp" over every input frame, segments split at the
+    /// waypoints only (`warp::retime::paper_discrepancy`). `null` for `validate`, which has no
+    /// warp plan.
+    #[serde(default)]
+    pub timewarp_discrepancy_paper: Option<f64>,
+    /// `D_C` over the stretched output frames (`metrics::stretched_frames`: the bracketing
+    /// input step got more than one output frame) [mm]; `null` when no frame is stretched.
+    #[serde(default)]
+    pub d_c_stretched_mm: Option<f64>,
+    /// Number of stretched output frames.
+    #[serde(default)]
+    pub stretched_frames: usize,
+    /// The output frame with the largest contact distance.
+    #[serde(default)]
+    pub d_c_worst: Option<WorstFrame>,
+}
+
+/// One frame and its contact distance.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WorstFrame {
+    /// Output frame.
+    pub frame: usize,
+    /// Its mean correspondence distance [mm].
+    pub d_c_mm: f64,
 }
 
 /// Constraint checks on the output.
