@@ -5,7 +5,8 @@
 //! 2. barrier push-out of the object ([`crate::warp::barrier`]),
 //! 3. temporal retiming: global C² B-spline and the timewarp τ ([`crate::warp::retime`]),
 //! 4. hand recovery: per-frame contact IK ([`crate::hand::ik`]) warm-started from the SE(3)
-//!    baseline ([`crate::hand::baseline`]), or the baseline alone,
+//!    baseline ([`crate::hand::baseline`]), or the baseline alone; outside the contact
+//!    segment the hand's path is pushed out of the barriers ([`crate::hand::pushout`]),
 //! 5. smoothing of the hand (contact IK only),
 //! 6. physics replay in Rapier ([`crate::physics`]),
 //! 7. metrics ([`crate::metrics`]),
@@ -20,7 +21,7 @@ use rapier3d_f64::parry::shape::SharedShape;
 
 use crate::geometry::Mesh;
 use crate::hand::ik::{self, Solver};
-use crate::hand::{HandPath, baseline, smooth};
+use crate::hand::{HandPath, baseline, pushout, smooth};
 use crate::math::convert::to_pose;
 use crate::metrics;
 use crate::model::report::{
@@ -194,6 +195,10 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         }
     };
 
+    // Stage 4b: the hand's own path outside contact pushed out of the barriers.
+    let (hand, hand_push) = hand_pushout(config, scene, &object, hand, &options.limits)?;
+    timing.insert("hand_pushout".into(), hand_push.time_s);
+
     let mut out = assemble(demo, &object, &hand, &config.name);
     out.scene = Some(config.scene.clone());
     out.barriers = config.barriers.clone();
@@ -232,6 +237,10 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             r.d_c_unsmoothed_mm = *v;
         }
     }
+    report.constraints.hand_radius_mm = hand_push.radius_m * 1e3;
+    report.constraints.hand_pushout_frames_moved = hand_push.frames_moved;
+    report.constraints.hand_pushout_max_mm = hand_push.max_push_m * 1e3;
+    report.constraints.hand_narrow_gap = hand_push.narrow_gap.clone();
     report.config = Some(config.source.display().to_string());
     report.threshold_mm = Some(threshold);
     report.hand = Some(options.hand.as_str().into());
@@ -276,6 +285,29 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         hand,
         frames,
     })
+}
+
+/// Stage 4b: the barriers prepared with the hand radius, and the hand push-out outside the
+/// contact segment ([`pushout`]).
+fn hand_pushout(
+    config: &WarpConfig,
+    scene: &Scene,
+    object: &ObjectWarp,
+    hand: HandPath,
+    limits: &Limits,
+) -> Result<(HandPath, pushout::Stats)> {
+    let params = pushout::Params {
+        radius_m: config.params.hand_radius_m,
+        mode: config.params.pushout,
+        step_m: config.params.pushout_step_m,
+        ..pushout::Params::default()
+    };
+    let barriers = if params.radius_m > 0.0 {
+        prepare_barriers(config, scene, params.radius_m, limits)?
+    } else {
+        Vec::new()
+    };
+    Ok(pushout::run(hand, &object.plan, &barriers, &params))
 }
 
 /// The object mesh as a collision shape in the object frame (the IK penetration term).
@@ -425,6 +457,7 @@ fn report(
             pushout_max_mm: object.barrier.stats.max_push_m * 1e3,
             narrow_gap: object.barrier.stats.narrow_gap.clone(),
             contact_gap_frames: plan.segment.gap_frames,
+            ..Constraints::default()
         },
         ..Report::default()
     })

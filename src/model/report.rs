@@ -92,6 +92,18 @@ pub struct Constraints {
     pub pushout_max_mm: f64,
     /// The push-out's narrow-gap failure, when it happened.
     pub narrow_gap: Option<NarrowGap>,
+    /// Hand bounding radius of the hand's push-out outside contact [mm].
+    #[serde(default)]
+    pub hand_radius_mm: f64,
+    /// Output frames outside contact whose wrist the hand push-out moved.
+    #[serde(default)]
+    pub hand_pushout_frames_moved: usize,
+    /// Largest distance the hand push-out moved a wrist [mm].
+    #[serde(default)]
+    pub hand_pushout_max_mm: f64,
+    /// The hand push-out's narrow-gap failure (output frames), when it happened.
+    #[serde(default)]
+    pub hand_narrow_gap: Option<NarrowGap>,
     /// In-contact input frames without correspondences (the segment is treated as one).
     pub contact_gap_frames: usize,
 }
