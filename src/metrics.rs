@@ -15,8 +15,8 @@
 use nalgebra::Isometry3;
 
 use crate::model::Demo;
-use crate::warp::retime::Timewarp;
 use crate::robot::Robot;
+use crate::warp::retime::Timewarp;
 
 /// `D_WO` of a demonstration [mm].
 pub fn d_wo_mm(demo: &Demo) -> f64 {

@@ -585,7 +585,8 @@ pub fn validate(
             plr_hand: 1.0,
             timewarp_discrepancy: discrepancy,
             timewarp_discrepancy_paper: None,
-            d_c_worst: metrics::worst_frame(&dc).map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
+            d_c_worst: metrics::worst_frame(&dc)
+                .map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
             ..Metrics::default()
         },
         constraints: Constraints {

@@ -121,8 +121,10 @@ pub fn run(
         let mut gap = NarrowGap::default();
         for &t in &frames {
             let p = Point3::from(hand.wrists[t].translation.vector);
-            let inside: Vec<&Barrier> =
-                barriers.iter().filter(|b| b.contains(&p, params.mode)).collect();
+            let inside: Vec<&Barrier> = barriers
+                .iter()
+                .filter(|b| b.contains(&p, params.mode))
+                .collect();
             if !inside.is_empty() {
                 gap.frames.push(t);
                 for b in inside {
@@ -195,7 +197,11 @@ mod tests {
                 assert_eq!(out.wrists[t], hand.wrists[t], "contact frame {t} moved");
             } else {
                 for b in &barriers {
-                    assert!(!b.contains(&p, params.mode), "frame {t} still inside {}", b.name);
+                    assert!(
+                        !b.contains(&p, params.mode),
+                        "frame {t} still inside {}",
+                        b.name
+                    );
                 }
             }
         }

@@ -283,7 +283,10 @@ pub fn table5(rep: &Reproduction) -> Table {
         }
         let r = ok(rep, &c, &lm(3.5));
         row.push(cell(r.map(|r| r.metrics.plr_object), 3));
-        row.push(cell(r.and_then(|r| r.metrics.timewarp_discrepancy_paper), 3));
+        row.push(cell(
+            r.and_then(|r| r.metrics.timewarp_discrepancy_paper),
+            3,
+        ));
         row.push(cell(r.map(|r| r.metrics.timewarp_discrepancy), 3));
         t.rows.push(row);
     }

@@ -327,7 +327,11 @@ pub fn paper_discrepancy(positions: &[Vector3<f64>], plan: &WarpPlan) -> f64 {
         seg[0] = 0.0;
         for j in 1..seg.len() {
             let d = positions[start + j] - positions[start + j - 1];
-            let step = if d == Vector3::zeros() { PAPER_EPS_M } else { d.norm() };
+            let step = if d == Vector3::zeros() {
+                PAPER_EPS_M
+            } else {
+                d.norm()
+            };
             seg[j] = seg[j - 1] + step;
         }
         let total = seg[seg.len() - 1];
@@ -347,7 +351,9 @@ pub fn paper_discrepancy(positions: &[Vector3<f64>], plan: &WarpPlan) -> f64 {
     }
     let (lo, hi) = t
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
     let sum: f64 = t
         .iter()
         .enumerate()

@@ -85,7 +85,10 @@ fn every_config_loads_and_plans() {
     let stress = |p: &std::path::PathBuf| p.to_string_lossy().contains("_timewarp_stress");
     let paper = configs.iter().filter(|p| !stress(p)).count();
     assert_eq!(paper, 14, "{configs:?}");
-    assert!(configs.iter().filter(|p| stress(p)).count() >= 3, "{configs:?}");
+    assert!(
+        configs.iter().filter(|p| stress(p)).count() >= 3,
+        "{configs:?}"
+    );
     for path in configs {
         let config = WarpConfig::load(&path, &limits).unwrap_or_else(|e| panic!("{e}"));
         let scene = Scene::load(&config.scene, &limits).unwrap();
