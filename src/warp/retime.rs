@@ -400,3 +400,95 @@ fn segment_weights(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ContactSegment;
+    use nalgebra::UnitQuaternion;
+
+    /// 100 frames, contact 10..=90; the object rests on 10..=30 and 70..=90 and moves 0.4 m at
+    /// constant speed in between.
+    fn rest_move_rest() -> (ObjectPath, WarpPlan) {
+        let x = |i: usize| 0.01 * (i.clamp(30, 70) - 30) as f64;
+        let positions: Vec<Vector3<f64>> = (0..100).map(|i| Vector3::new(x(i), 0.0, 0.0)).collect();
+        let path = ObjectPath {
+            rotations: vec![UnitQuaternion::identity(); positions.len()],
+            positions,
+        };
+        let segment = ContactSegment {
+            start: 10,
+            end: 90,
+            gap_frames: 0,
+        };
+        let plan = WarpPlan::identity(&path.positions, segment);
+        (path, plan)
+    }
+
+    #[test]
+    fn paper_mode_gives_resting_frames_almost_no_time_and_stays_increasing() {
+        let (path, plan) = rest_move_rest();
+        let params = Params {
+            mode: RetimeMode::Paper,
+            ..Params::default()
+        };
+        let out = run(&path.positions, &path, &plan, &params).unwrap();
+        let tau = &out.timewarp.tau;
+        assert!(
+            tau.windows(2).all(|w| w[1] > w[0]),
+            "τ not strictly increasing"
+        );
+        let rest = tau[30] - tau[10];
+        assert!(rest < 1e-3, "20 resting frames took {rest} output frames");
+        // The 40 moving steps share the 80 output frames of the window: 2 frames each.
+        for f in 30..70 {
+            let step = tau[f + 1] - tau[f];
+            assert!((step - 2.0).abs() < 1e-3, "step {f}: {step}");
+        }
+        assert!(out.stats.max_anchor_error_m < 1e-9);
+        // Every output frame lies on the input path (no overshoot of the spline).
+        for p in &out.path.positions {
+            assert!(p.x > -1e-6 && p.x < 0.4 + 1e-6, "{p:?} off the path");
+        }
+        // The floored chord rule keeps time on the resting frames: 20 steps at the floor
+        // (5 % of the mean step 0.005 m) take 20·0.00025/0.42·80 ≈ 0.95 output frames.
+        let chord = run(&path.positions, &path, &plan, &Params::default()).unwrap();
+        let kept = chord.timewarp.tau[30] - chord.timewarp.tau[10];
+        assert!((kept - 0.952).abs() < 0.01, "{kept}");
+    }
+
+    #[test]
+    fn paper_discrepancy_is_zero_for_uniform_motion_and_matches_the_ideal_for_a_rest() {
+        let n = 101;
+        let uniform: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new(i as f64 * 0.01, 0.0, 0.0))
+            .collect();
+        let seg = ContactSegment {
+            start: 0,
+            end: n - 1,
+            gap_frames: 0,
+        };
+        let plan = WarpPlan::identity(&uniform, seg);
+        assert!(paper_discrepancy(&uniform, &plan) < 1e-12);
+
+        // The first 40 frames rest: their normalized times are ~0, the rest rise linearly.
+        let rest: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new(i.saturating_sub(40) as f64 * 0.01, 0.0, 0.0))
+            .collect();
+        // The code's segment ends at 1 − 0.001; the reference line spans min..max, so the
+        // gap scales the whole deviation by 0.999.
+        let scale = 1.0 - PAPER_SEGMENT_GAP;
+        let ideal: Vec<f64> = (0..n).map(|i| i.saturating_sub(40) as f64 / 60.0).collect();
+        let expected = (ideal
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (t - i as f64 / 100.0).powi(2))
+            .sum::<f64>()
+            / n as f64)
+            .sqrt()
+            * scale;
+        let got = paper_discrepancy(&rest, &WarpPlan::identity(&rest, seg));
+        assert!((got - expected).abs() < 1e-6, "{got} vs {expected}");
+        assert!(got > 0.1);
+    }
+}
