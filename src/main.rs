@@ -417,6 +417,10 @@ fn run(cli: Cli) -> Result<()> {
                 limits,
                 progress: true,
             })?;
+            eprint!(
+                "{}",
+                dexwarp::reproduce::tables::paper_comparison(&rep).markdown()
+            );
             let failed = rep.runs.iter().filter(|r| r.report.error.is_some()).count();
             let passed = rep
                 .runs

@@ -5,12 +5,18 @@
 //!   `|FK(link)·hand_point − O·object_point|` [mm].
 //! * PLR: path length of the warped trajectory over that of the original, for the object
 //!   origin and for the wrist.
-//! * Timewarp discrepancy: see [`crate::warp::retime::Timewarp::discrepancy`].
+//! * Timewarp discrepancy: ours in [`crate::warp::retime::Timewarp::discrepancy`], the
+//!   paper's in [`crate::warp::retime::paper_discrepancy`].
+//! * `D_C` over the stretched frames: output frames `t` of the contact segment whose bracketing
+//!   input step `s → s+1` (`s = t*`) was given more than one output frame,
+//!   `τ(s+1) − τ(s) > 1`: few input frames cover many output frames there, which is where the
+//!   rigid baseline's interpolation between correct poses departs from the contacts.
 
 use nalgebra::Isometry3;
 
 use crate::model::Demo;
 use crate::robot::Robot;
+use crate::warp::retime::Timewarp;
 
 /// `D_WO` of a demonstration [mm].
 pub fn d_wo_mm(demo: &Demo) -> f64 {
@@ -94,4 +100,35 @@ pub fn ratio(a: f64, b: f64) -> f64 {
     } else {
         a / b
     }
+}
+
+/// Output frames in `range` that lie in a stretched input step (see the module docs): `true`
+/// when `τ(t*+1) − τ(t*) > 1`.
+pub fn stretched_frames(tw: &Timewarp, range: std::ops::RangeInclusive<usize>) -> Vec<usize> {
+    let n = tw.tau.len();
+    range
+        .filter(|&t| {
+            let s = tw.source_frame(t as f64);
+            s + 1 < n && tw.tau[s + 1] - tw.tau[s] > 1.0 + 1e-9
+        })
+        .collect()
+}
+
+/// Mean of the per-frame contact distance over `frames` (frames without contacts skipped);
+/// `None` when none has one.
+pub fn d_c_over_mm(per_frame: &[Option<f64>], frames: &[usize]) -> Option<f64> {
+    let (sum, n) = frames
+        .iter()
+        .filter_map(|&t| per_frame.get(t).copied().flatten())
+        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// The output frame with the largest contact distance and that distance [mm].
+pub fn worst_frame(per_frame: &[Option<f64>]) -> Option<(usize, f64)> {
+    per_frame
+        .iter()
+        .enumerate()
+        .filter_map(|(t, v)| v.map(|v| (t, v)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
 }

@@ -5,7 +5,8 @@
 //! 2. barrier push-out of the object ([`crate::warp::barrier`]),
 //! 3. temporal retiming: global C² B-spline and the timewarp τ ([`crate::warp::retime`]),
 //! 4. hand recovery: per-frame contact IK ([`crate::hand::ik`]) warm-started from the SE(3)
-//!    baseline ([`crate::hand::baseline`]), or the baseline alone,
+//!    baseline ([`crate::hand::baseline`]), or the baseline alone; outside the contact
+//!    segment the hand's path is pushed out of the barriers ([`crate::hand::pushout`]),
 //! 5. smoothing of the hand (contact IK only),
 //! 6. physics replay in Rapier ([`crate::physics`]),
 //! 7. metrics ([`crate::metrics`]),
@@ -20,12 +21,12 @@ use rapier3d_f64::parry::shape::SharedShape;
 
 use crate::geometry::Mesh;
 use crate::hand::ik::{self, Solver};
-use crate::hand::{HandPath, baseline, smooth};
+use crate::hand::{HandPath, baseline, pushout, smooth};
 use crate::math::convert::to_pose;
 use crate::metrics;
 use crate::model::provenance::Provenance;
 use crate::model::report::{
-    Constraints, ContactDistance, IkSummary, Metrics, Pair, REPORT_FORMAT, Report,
+    Constraints, ContactDistance, IkSummary, Metrics, Pair, REPORT_FORMAT, Report, WorstFrame,
 };
 use crate::model::{Demo, Frame, Scene, WarpConfig};
 use crate::output::frames::FrameRow;
@@ -250,6 +251,10 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         }
     };
 
+    // Stage 4b: the hand's own path outside contact pushed out of the barriers.
+    let (hand, hand_push) = hand_pushout(config, scene, &object, hand, &options.limits)?;
+    timing.insert("hand_pushout".into(), hand_push.time_s);
+
     check_hand(&config.source, "hand recovery (4-5)", &hand)?;
     let mut out = assemble(demo, &object, &hand, &config.name);
     out.scene = Some(config.scene.clone());
@@ -291,6 +296,10 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             r.d_c_unsmoothed_mm = *v;
         }
     }
+    report.constraints.hand_radius_mm = hand_push.radius_m * 1e3;
+    report.constraints.hand_pushout_frames_moved = hand_push.frames_moved;
+    report.constraints.hand_pushout_max_mm = hand_push.max_push_m * 1e3;
+    report.constraints.hand_narrow_gap = hand_push.narrow_gap.clone();
     report.config = Some(config.source.display().to_string());
     report.threshold_mm = Some(threshold);
     report.hand = Some(options.hand.as_str().into());
@@ -346,6 +355,29 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         hand,
         frames,
     })
+}
+
+/// Stage 4b: the barriers prepared with the hand radius, and the hand push-out outside the
+/// contact segment ([`pushout`]).
+fn hand_pushout(
+    config: &WarpConfig,
+    scene: &Scene,
+    object: &ObjectWarp,
+    hand: HandPath,
+    limits: &Limits,
+) -> Result<(HandPath, pushout::Stats)> {
+    let params = pushout::Params {
+        radius_m: config.params.hand_radius_m,
+        mode: config.params.pushout,
+        step_m: config.params.pushout_step_m,
+        ..pushout::Params::default()
+    };
+    let barriers = if params.radius_m > 0.0 {
+        prepare_barriers(config, scene, params.radius_m, limits)?
+    } else {
+        Vec::new()
+    };
+    Ok(pushout::run(hand, &object.plan, &barriers, &params))
 }
 
 /// The barriers a config names, as world-frame collision shapes (the IK barrier term).
@@ -433,6 +465,10 @@ fn report(
     let dc_orig = metrics::d_c_mm(&metrics::contact_distance_per_frame_mm(robot, original));
     let dc_out = metrics::d_c_mm(dc_frames);
     let plan = &object.plan;
+    let stretched = metrics::stretched_frames(
+        &object.retime.timewarp,
+        plan.segment.start..=plan.t_end_new(),
+    );
     let min_clearance = if barriers.is_empty() {
         None
     } else {
@@ -464,6 +500,11 @@ fn report(
                 metrics::wrist_path_length(original),
             ),
             timewarp_discrepancy: object.retime.timewarp.discrepancy(),
+            timewarp_discrepancy_paper: Some(object.retime.stats.discrepancy_paper),
+            d_c_stretched_mm: metrics::d_c_over_mm(dc_frames, &stretched),
+            stretched_frames: stretched.len(),
+            d_c_worst: metrics::worst_frame(dc_frames)
+                .map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
         },
         constraints: Constraints {
             max_waypoint_error_mm: object.retime.stats.max_anchor_error_m * 1e3,
@@ -474,6 +515,7 @@ fn report(
             pushout_max_mm: object.barrier.stats.max_push_m * 1e3,
             narrow_gap: object.barrier.stats.narrow_gap.clone(),
             contact_gap_frames: plan.segment.gap_frames,
+            ..Constraints::default()
         },
         ..Report::default()
     })
@@ -602,6 +644,10 @@ pub fn validate(
             plr_object: 1.0,
             plr_hand: 1.0,
             timewarp_discrepancy: discrepancy,
+            timewarp_discrepancy_paper: None,
+            d_c_worst: metrics::worst_frame(&dc)
+                .map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
+            ..Metrics::default()
         },
         constraints: Constraints {
             object_radius_mm: mesh.bounding_radius() * 1e3,

@@ -1,8 +1,9 @@
 //! Hand recovery (METHOD.md stage 4): the SE(3) baseline, and (per-frame contact IK and
-//! smoothing) the method itself.
+//! smoothing) the method itself; the barrier push-out of the hand outside contact.
 
 pub mod baseline;
 pub mod ik;
+pub mod pushout;
 pub mod robustness;
 pub mod smooth;
 

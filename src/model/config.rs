@@ -76,8 +76,13 @@ pub struct WarpParams {
     /// pass count was 1 (10 mm) and 3 (3.5 mm) with `previous`, 6 and 4 with `follow_object`
     /// (measured on one revision, before the teapot grasp was fixed).
     pub warm_start: WarmStart,
-    /// Timewarp rule: `chord` (the paper, default) or `speed`.
+    /// Timewarp rule: `chord` (default: constant speed per segment, resting frames keep time),
+    /// `paper` (chord length without a floor, as the paper's reference code; the built-in
+    /// configs use it) or `speed` (the demonstration's speed profile).
     pub retime: RetimeMode,
+    /// Bounding radius of the hand about the wrist for the hand's barrier push-out outside
+    /// the contact segment [m] (`hand::pushout`); 0 turns it off. Default 0.05.
+    pub hand_radius_m: f64,
     /// Output frame of the end of the contact segment; by default the input's end shifted by
     /// the last waypoint's time shift.
     pub end_t_new: Option<f64>,
@@ -97,6 +102,7 @@ impl Default for WarpParams {
             penetration_tolerance_mm: 1.0,
             warm_start: WarmStart::FollowObject,
             retime: RetimeMode::Chord,
+            hand_radius_m: crate::hand::pushout::DEFAULT_RADIUS_M,
             end_t_new: None,
         }
     }
@@ -128,6 +134,9 @@ impl WarpParams {
 pub struct ConfigFile {
     pub format: String,
     pub name: String,
+    /// What the config asks of the method, in words (optional; shown in reports).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
     /// Demonstration file, relative to the config.
     pub demo: PathBuf,
     /// Scene file, relative to the config.
@@ -162,6 +171,8 @@ pub struct Waypoint {
 #[derive(Clone, Debug, PartialEq)]
 pub struct WarpConfig {
     pub name: String,
+    /// What the config asks of the method (optional).
+    pub description: Option<String>,
     pub demo: PathBuf,
     pub scene: PathBuf,
     pub waypoints: Vec<Waypoint>,
@@ -271,11 +282,13 @@ impl WarpConfig {
             (0.0, 1e6),
             "weight",
         )?;
+        c.non_negative(|| "params.hand_radius_m".into(), p.hand_radius_m, "m")?;
         if let Some(e) = p.end_t_new {
             frame_index(&c, || "params.end_t_new".into(), e, "output")?;
         }
         Ok(WarpConfig {
             name: file.name,
+            description: file.description,
             demo: json::resolve_relative(path, &file.demo),
             scene: json::resolve_relative(path, &file.scene),
             waypoints,

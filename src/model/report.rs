@@ -43,8 +43,34 @@ pub struct Metrics {
     pub plr_object: f64,
     /// Path length ratio of the wrist.
     pub plr_hand: f64,
-    /// Timewarp discrepancy (0 = uniform timing).
+    /// Timewarp discrepancy, our definition (0 = uniform timing): every input frame, output
+    /// time normalized by the output length.
     pub timewarp_discrepancy: f64,
+    /// Timewarp discrepancy as the paper's reference code computes it: its per-segment
+    /// chord-length "contact timewarp" over every input frame, segments split at the
+    /// waypoints only (`warp::retime::paper_discrepancy`). `null` for `validate`, which has no
+    /// warp plan.
+    #[serde(default)]
+    pub timewarp_discrepancy_paper: Option<f64>,
+    /// `D_C` over the stretched output frames (`metrics::stretched_frames`: the bracketing
+    /// input step got more than one output frame) [mm]; `null` when no frame is stretched.
+    #[serde(default)]
+    pub d_c_stretched_mm: Option<f64>,
+    /// Number of stretched output frames.
+    #[serde(default)]
+    pub stretched_frames: usize,
+    /// The output frame with the largest contact distance.
+    #[serde(default)]
+    pub d_c_worst: Option<WorstFrame>,
+}
+
+/// One frame and its contact distance.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WorstFrame {
+    /// Output frame.
+    pub frame: usize,
+    /// Its mean correspondence distance [mm].
+    pub d_c_mm: f64,
 }
 
 /// Constraint checks on the output.
@@ -66,6 +92,18 @@ pub struct Constraints {
     pub pushout_max_mm: f64,
     /// The push-out's narrow-gap failure, when it happened.
     pub narrow_gap: Option<NarrowGap>,
+    /// Hand bounding radius of the hand's push-out outside contact [mm].
+    #[serde(default)]
+    pub hand_radius_mm: f64,
+    /// Output frames outside contact whose wrist the hand push-out moved.
+    #[serde(default)]
+    pub hand_pushout_frames_moved: usize,
+    /// Largest distance the hand push-out moved a wrist [mm].
+    #[serde(default)]
+    pub hand_pushout_max_mm: f64,
+    /// The hand push-out's narrow-gap failure (output frames), when it happened.
+    #[serde(default)]
+    pub hand_narrow_gap: Option<NarrowGap>,
     /// In-contact input frames without correspondences (the segment is treated as one).
     pub contact_gap_frames: usize,
 }

@@ -3,7 +3,9 @@
 //!
 //! Plots: the timewarp (input frame against output time, the paper's Allegro figure (c)); object
 //! and wrist height over time for the baseline against contact IK (the paper's baseline
-//! figure); per-frame D_C; per-frame physics tracking error; the robustness curves.
+//! figure); per-frame D_C; per-frame physics tracking error; the robustness curves; for every
+//! `*_timewarp_stress*` config the paper's Fig. "naive" (object height, baseline wrist and
+//! contact-IK wrist over output time, τ's control points marked).
 
 use std::path::Path;
 
@@ -26,6 +28,17 @@ struct Series<'a> {
 }
 
 fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
+    line_chart_marked(title, x_label, y_label, series, &[])
+}
+
+/// A line chart with vertical marker lines at the x values `marks` (τ's control points).
+fn line_chart_marked(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    marks: &[f64],
+) -> String {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
@@ -60,6 +73,19 @@ fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> S
             .y_desc(y_label)
             .light_line_style(RGBColor(235, 235, 235))
             .draw();
+        for (k, &m) in marks.iter().enumerate() {
+            let a = chart.draw_series(std::iter::once(PathElement::new(
+                vec![(m, y0 - pad), (m, y1 + pad)],
+                GREY.mix(0.6).stroke_width(1),
+            )));
+            if k == 0
+                && let Ok(a) = a
+            {
+                a.label("τ control point").legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], GREY.stroke_width(1))
+                });
+            }
+        }
         for s in series {
             let color = s.color;
             if let Ok(a) = chart.draw_series(LineSeries::new(
@@ -132,6 +158,80 @@ fn run_dir(rep: &Reproduction, config: &str, variant: &str) -> Option<std::path:
         .iter()
         .find(|r| r.config == config && r.variant.name == variant && r.report.error.is_none())
         .map(|r| r.dir.clone())
+}
+
+/// τ's control points in output frames: the start of the contact segment, every waypoint's
+/// `t_new` (read from the run's config), and the end of the contact segment.
+fn control_points(rep: &Reproduction, config: &str, rows: &[FrameRow]) -> Vec<f64> {
+    let mut v = Vec::new();
+    let in_contact: Vec<usize> = rows
+        .iter()
+        .filter(|r| r.in_contact)
+        .map(|r| r.frame)
+        .collect();
+    if let Some(&c0) = in_contact.first() {
+        v.push(c0 as f64);
+    }
+    let path = rep
+        .runs
+        .iter()
+        .find(|r| r.config == config)
+        .and_then(|r| r.report.config.clone());
+    if let Some(text) = path.and_then(|p| std::fs::read(p).ok())
+        && let Ok(json) = serde_json::from_slice::<serde_json::Value>(&text)
+        && let Some(ws) = json.get("waypoints").and_then(|w| w.as_array())
+    {
+        v.extend(ws.iter().filter_map(|w| w.get("t_new")?.as_f64()));
+    }
+    if let Some(&c1) = in_contact.last() {
+        v.push(c1 as f64);
+    }
+    v
+}
+
+/// The paper's Fig. "naive" for every stress config: object height, baseline wrist and
+/// contact-IK wrist height over output time, τ's control points marked.
+fn stress_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
+    for c in tables::configs(rep)
+        .into_iter()
+        .filter(|c| c.contains("_timewarp_stress"))
+    {
+        let lm = run_dir(rep, &c, "lm_3.5mm").and_then(|d| read_frames(&d));
+        let base = run_dir(rep, &c, "baseline").and_then(|d| read_frames(&d));
+        let (Some(lm), Some(base)) = (lm, base) else {
+            continue;
+        };
+        let marks = control_points(rep, &c, &lm);
+        let z = |rows: &[FrameRow], f: fn(&FrameRow) -> f64| -> Vec<(f64, f64)> {
+            rows.iter().map(|r| (r.frame as f64, f(r))).collect()
+        };
+        out.push((
+            format!("Stress: heights over output time, baseline against contact IK ({c})"),
+            line_chart_marked(
+                &format!("object and wrist height: {c}"),
+                "output frame",
+                "z [m]",
+                &[
+                    Series {
+                        label: "object",
+                        color: GREY,
+                        points: z(&lm, |r| r.object_z),
+                    },
+                    Series {
+                        label: "wrist, baseline",
+                        color: ORANGE,
+                        points: z(&base, |r| r.wrist_z),
+                    },
+                    Series {
+                        label: "wrist, contact IK",
+                        color: BLUE,
+                        points: z(&lm, |r| r.wrist_z),
+                    },
+                ],
+                &marks,
+            ),
+        ));
+    }
 }
 
 fn plots(rep: &Reproduction) -> Vec<(String, String)> {
@@ -288,6 +388,7 @@ fn plots(rep: &Reproduction) -> Vec<(String, String)> {
             ),
         ));
     }
+    stress_plots(rep, &mut out);
     out
 }
 

@@ -227,17 +227,55 @@ pub fn table4(rep: &Reproduction) -> Table {
     t
 }
 
-/// Table 5: PLR of the hand per threshold, PLR of the object, timewarp discrepancy.
+/// The paper's Table 5: (trajectory, PLR object, timewarp discrepancy).
+pub const PAPER_TABLE5: [(&str, f64, f64); 12] = [
+    ("cube_messy", 1.005, 0.075),
+    ("cube_messy2", 2.024, 0.085),
+    ("fryingpan_change_tops", 0.897, 0.276),
+    ("fryingpan_island", 2.165, 0.072),
+    ("fryingpan_onto_shelf", 1.733, 0.075),
+    ("teapot_pour_empty", 3.688, 0.073),
+    ("mug_pass_wall", 1.148, 0.096),
+    ("mug_pass_wall_short", 1.581, 0.094),
+    ("mug_pass_in_sink", 1.121, 0.076),
+    ("teapot_pour_cup_long", 2.83, 0.139),
+    ("teapot_pour_cups", 1.405, 0.117),
+    ("teapot_pour_cups_wall", 2.172, 0.117),
+];
+
+/// Relative tolerance of the comparison with the paper's Table 5 (±35 %).
+pub const PAPER_TOLERANCE: f64 = 0.35;
+
+/// The paper's Table 5 values of a config (PLR object, timewarp discrepancy), if it has them.
+pub fn paper_table5(config: &str) -> Option<(f64, f64)> {
+    PAPER_TABLE5
+        .iter()
+        .find(|(n, _, _)| *n == config)
+        .map(|&(_, plr, tw)| (plr, tw))
+}
+
+/// True when `ours` is within ±[`PAPER_TOLERANCE`] of `paper`.
+pub fn within_tolerance(ours: f64, paper: f64) -> bool {
+    (ours / paper - 1.0).abs() <= PAPER_TOLERANCE
+}
+
+/// Table 5: PLR of the hand per threshold, PLR of the object, timewarp discrepancy in the
+/// paper's definition (labelled) and ours.
 pub fn table5(rep: &Reproduction) -> Table {
     let mut t = Table {
         file: "table5_plr_timewarp".into(),
         title: "Table 5: PLRs and timewarp discrepancies".into(),
         header: vec!["Trajectory".into()],
+        note: "Timewarp (paper def.): the paper's code's contact timewarp, per-segment chord length over every input frame with segments split at the waypoints only; timewarp (ours): every input frame, output time normalized by the output length (docs/METHOD.md, Metrics).".into(),
         ..Table::default()
     };
     t.header
         .extend(THRESHOLDS_MM.iter().map(|x| format!("PLR Hand {x} mm")));
-    t.header.extend(["PLR Object".into(), "Timewarp".into()]);
+    t.header.extend([
+        "PLR Object".into(),
+        "Timewarp (paper def.)".into(),
+        "Timewarp (ours)".into(),
+    ]);
     for c in configs(rep) {
         let mut row = vec![c.clone()];
         for &th in &THRESHOLDS_MM {
@@ -245,9 +283,64 @@ pub fn table5(rep: &Reproduction) -> Table {
         }
         let r = ok(rep, &c, &lm(3.5));
         row.push(cell(r.map(|r| r.metrics.plr_object), 3));
+        row.push(cell(
+            r.and_then(|r| r.metrics.timewarp_discrepancy_paper),
+            3,
+        ));
         row.push(cell(r.map(|r| r.metrics.timewarp_discrepancy), 3));
         t.rows.push(row);
     }
+    t
+}
+
+/// Our Table 5 against the paper's: timewarp discrepancy (paper's definition) and object PLR,
+/// each with its ratio and the ±35 % check, for the configs the paper has.
+pub fn paper_comparison(rep: &Reproduction) -> Table {
+    let mut t = Table {
+        file: "table5_vs_paper".into(),
+        title: "Table 5 against the paper: timewarp discrepancy (paper def.) and object PLR".into(),
+        header: [
+            "Trajectory",
+            "Timewarp ours",
+            "Timewarp paper",
+            "ratio",
+            "within ±35 %",
+            "PLR Object ours",
+            "PLR Object paper",
+            "ratio",
+            "within ±35 %",
+        ]
+        .map(String::from)
+        .to_vec(),
+        note: "Ours: contact IK, LM, 3.5 mm (the object path does not depend on the hand).".into(),
+        ..Table::default()
+    };
+    let yes = |b: bool| if b { "yes" } else { "NO" }.to_string();
+    let (mut n, mut n_ok) = (0, 0);
+    for c in configs(rep) {
+        let Some((plr_p, tw_p)) = paper_table5(&c) else {
+            continue;
+        };
+        let r = ok(rep, &c, &lm(3.5));
+        let tw = r.and_then(|r| r.metrics.timewarp_discrepancy_paper);
+        let plr = r.map(|r| r.metrics.plr_object);
+        let tw_ok = tw.is_some_and(|v| within_tolerance(v, tw_p));
+        let plr_ok = plr.is_some_and(|v| within_tolerance(v, plr_p));
+        n += 1;
+        n_ok += usize::from(tw_ok && plr_ok);
+        t.rows.push(vec![
+            c.clone(),
+            cell(tw, 3),
+            format!("{tw_p:.3}"),
+            cell(tw.map(|v| v / tw_p), 2),
+            yes(tw_ok),
+            cell(plr, 3),
+            format!("{plr_p:.3}"),
+            cell(plr.map(|v| v / plr_p), 2),
+            yes(plr_ok),
+        ]);
+    }
+    t.note = format!("{} {n_ok} of {n} configs within ±35 % on both.", t.note);
     t
 }
 
@@ -259,7 +352,8 @@ fn verdict(r: Option<&Report>) -> String {
     }
 }
 
-/// Baseline against contact IK at 3.5 mm.
+/// Baseline against contact IK at 3.5 mm: D_C overall and over the stretched frames, the
+/// worst frame, D_WO, and the physics verdicts with their reasons.
 pub fn baseline_table(rep: &Reproduction) -> Table {
     let mut t = Table {
         file: "baseline_comparison".into(),
@@ -268,6 +362,11 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
             "Trajectory",
             "D_C baseline [mm]",
             "D_C contact IK [mm]",
+            "D_C stretched baseline [mm]",
+            "D_C stretched contact IK [mm]",
+            "stretched frames",
+            "worst frame baseline (D_C)",
+            "worst frame contact IK (D_C)",
             "D_WO baseline [mm]",
             "D_WO contact IK [mm]",
             "physics baseline",
@@ -275,21 +374,44 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
         ]
         .map(String::from)
         .to_vec(),
+        note: "Stretched frames: output frames whose bracketing input step got more than one output frame (τ(s+1) − τ(s) > 1). Physics: verdict, then the failed reasons.".into(),
         ..Table::default()
+    };
+    let worst = |r: Option<&Report>| match r.and_then(|r| r.metrics.d_c_worst) {
+        Some(w) => format!("{} ({:.1})", w.frame, w.d_c_mm),
+        None => "--".into(),
     };
     for c in configs(rep) {
         let (b, k) = (ok(rep, &c, "baseline"), ok(rep, &c, &lm(3.5)));
+        let stretched = |r: Option<&Report>| match r {
+            Some(r) if r.metrics.stretched_frames == 0 => "--".to_string(),
+            r => cell(r.and_then(|r| r.metrics.d_c_stretched_mm), 1),
+        };
         t.rows.push(vec![
             c.clone(),
             cell(b.map(|r| r.metrics.d_c_mm.warped), 1),
             cell(k.map(|r| r.metrics.d_c_mm.warped), 1),
+            stretched(b),
+            stretched(k),
+            k.map_or("--".into(), |r| r.metrics.stretched_frames.to_string()),
+            worst(b),
+            worst(k),
             cell(b.map(|r| r.metrics.d_wo_mm.warped), 1),
             cell(k.map(|r| r.metrics.d_wo_mm.warped), 1),
-            verdict(b),
-            verdict(k),
+            verdict_reasons(b),
+            verdict_reasons(k),
         ]);
     }
     t
+}
+
+/// The verdict followed by its reasons, for a table cell.
+fn verdict_reasons(r: Option<&Report>) -> String {
+    match r.and_then(|r| r.physics.as_ref()) {
+        Some(p) if p.reasons.is_empty() => p.verdict.clone(),
+        Some(p) => format!("{}: {}", p.verdict, p.reasons.join("; ")).replace('|', "/"),
+        None => verdict(r),
+    }
 }
 
 /// Every run's physics verdict and reasons (or its error).
@@ -354,6 +476,7 @@ pub fn all(rep: &Reproduction) -> Vec<Table> {
         table3(rep),
         table4(rep),
         table5(rep),
+        paper_comparison(rep),
         baseline_table(rep),
         verdicts_table(rep),
         robustness_table(rep),

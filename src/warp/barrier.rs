@@ -223,7 +223,7 @@ impl Barrier {
     }
 
     /// Moves `p` out along the centroid ray in steps of `step`; returns the new point.
-    fn push(&self, p: &Point3<f64>, mode: PushoutMode, step: f64) -> Point3<f64> {
+    pub fn push(&self, p: &Point3<f64>, mode: PushoutMode, step: f64) -> Point3<f64> {
         let v = p - self.centroid;
         let (dir, dist) = match v.try_normalize(1e-12) {
             Some(d) => (d, v.norm()),

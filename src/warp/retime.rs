@@ -9,12 +9,20 @@
 //!      parameter of the segment, so the object moves at constant speed along each segment.
 //!      Each step's length is floored at `min_speed_fraction` of the segment's mean step, so
 //!      frames where the object rests still take time and `τ` stays strictly increasing.
+//!    * `paper` (the paper's reference code; the default of the built-in configs): `τ_i` is the
+//!      chord-length parameter with no floor, so frames where the object rests get almost no
+//!      output time and the moving part is stretched over the window. Each step's length is
+//!      raised by [`PAPER_EPS_M`] = 1e-8 m (the size of the reference's duplicate-breaking
+//!      shift), which keeps `τ` strictly increasing; a segment that does not move at all is
+//!      timed uniformly.
 //!    * `speed`: each step takes output time proportional to `(ℓ' + ε)/(ℓ + ε)`, its warped
 //!      length over its original length (ε = 1 mm, ratio clamped to [1/8, 8]), so the
 //!      demonstration's own speed profile is kept where the path is not stretched. An identity
 //!      warp gives the identity timewarp exactly.
 //! 2. One global cubic B-spline (C²) interpolates the warped positions of the contact segment
-//!    at parameters `τ(frame)` (NURBS Book A9.1, [`crate::math::bspline`]); every anchor sits
+//!    at parameters `τ(frame)` (frames closer than [`MIN_SPLINE_GAP`] output frames to the
+//!    previous fitted one are left out of the fit: under `paper` they rest, and nearly equal
+//!    parameters would make the interpolation ill-conditioned; anchors are always fitted) (NURBS Book A9.1, [`crate::math::bspline`]); every anchor sits
 //!    at an integer `t'`, so every waypoint is hit at its output frame. It is sampled at the
 //!    integer output frames `c0..=t'_end`.
 //! 3. Orientation at output frame `t`: slerp between the warped rotations of the input frames
@@ -40,7 +48,35 @@ pub enum RetimeMode {
     Chord,
     /// Keep the demonstration's speed profile, scaled by the stretch of each step.
     Speed,
+    /// Chord length without a floor, as the paper's reference code: resting frames get almost
+    /// no output time ([`PAPER_EPS_M`] keeps τ strictly increasing).
+    Paper,
 }
+
+impl RetimeMode {
+    /// The name used in config files and reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RetimeMode::Chord => "chord",
+            RetimeMode::Speed => "speed",
+            RetimeMode::Paper => "paper",
+        }
+    }
+}
+
+/// `paper` mode: length added to every step [m], so a resting step still takes a sliver of
+/// output time and τ is strictly increasing. 1e-8 m is the shift the paper's reference code
+/// gives adjacent duplicate positions; a 0.1 m segment of 100 frames gives a resting step
+/// about 1e-7 of the segment's time.
+pub const PAPER_EPS_M: f64 = 1e-8;
+
+/// Smallest gap [output frames] between the parameters of two frames fitted by the global
+/// spline; closer frames (resting frames under `paper`) are left out of the fit.
+pub const MIN_SPLINE_GAP: f64 = 1e-3;
+
+/// The gap the paper's reference code leaves at the end of each segment's normalized time
+/// (its segments end at `t'_i − 0.001`, the next starts at `t'_i`).
+pub const PAPER_SEGMENT_GAP: f64 = 1e-3;
 
 /// Parameters of the retiming.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -113,6 +149,8 @@ pub struct Stats {
     pub max_step: f64,
     /// Largest distance from a waypoint to the sampled path at its output frame [m].
     pub max_anchor_error_m: f64,
+    /// Timewarp discrepancy as the paper's code computes it ([`paper_discrepancy`]).
+    pub discrepancy_paper: f64,
     /// Wall time [s].
     pub time_s: f64,
 }
@@ -164,9 +202,9 @@ pub fn run(
         tau[b.t] = b.t_new as f64; // exact, free of rounding
     }
 
-    let params_u = &tau[c0..=c1];
-    let spline = BSpline::interpolate3(params_u, &warped.positions[c0..=c1], 3)
-        .map_err(|e| RetimeFailure(e.to_string()))?;
+    let (params_u, points) = spline_samples(&tau, &warped.positions, plan);
+    let spline =
+        BSpline::interpolate3(&params_u, &points, 3).map_err(|e| RetimeFailure(e.to_string()))?;
     let t_end = plan.t_end_new();
     let frames_out = plan.frames_out();
     let mut positions = Vec::with_capacity(frames_out);
@@ -218,9 +256,110 @@ pub fn run(
             min_step,
             max_step,
             max_anchor_error_m,
+            discrepancy_paper: paper_discrepancy(&warped.positions, plan),
             time_s: clock.elapsed().as_secs_f64(),
         },
     })
+}
+
+/// The parameters and positions the global spline interpolates: every contact-segment frame
+/// whose τ is at least [`MIN_SPLINE_GAP`] after the previous fitted one, and every anchor (an
+/// anchor replaces a fitted frame closer than the gap before it).
+fn spline_samples(
+    tau: &[f64],
+    positions: &[Vector3<f64>],
+    plan: &WarpPlan,
+) -> (Vec<f64>, Vec<Vector3<f64>>) {
+    let (c0, c1) = (plan.segment.start, plan.segment.end);
+    let mut anchors = plan.anchors.iter().map(|a| a.t).peekable();
+    let mut u: Vec<f64> = Vec::with_capacity(c1 - c0 + 1);
+    let mut p = Vec::with_capacity(c1 - c0 + 1);
+    let mut last_is_anchor = false;
+    for f in c0..=c1 {
+        while anchors.peek().is_some_and(|&a| a < f) {
+            anchors.next();
+        }
+        let is_anchor = anchors.peek() == Some(&f);
+        let far = u.last().is_none_or(|&l| tau[f] - l >= MIN_SPLINE_GAP);
+        if is_anchor && !far && !last_is_anchor {
+            u.pop();
+            p.pop();
+        }
+        if far || (is_anchor && !last_is_anchor) || u.is_empty() {
+            u.push(tau[f]);
+            p.push(positions[f]);
+            last_is_anchor = is_anchor;
+        }
+    }
+    (u, p)
+}
+
+/// Timewarp discrepancy as the paper's reference code computes it (its "contact timewarp"):
+/// every input frame gets a normalized time in `[0, 1]` from per-segment chord length, with the
+/// segments split at the waypoints' input frames only (the first runs from frame 0, the last to
+/// the final frame, so the pre- and post-contact frames are inside them); segment `i` ends at
+/// `f_i − 0.001` ([`PAPER_SEGMENT_GAP`]) where `f_i = (t'_i − c0)/(t'_end − c0)` is the
+/// waypoint's place in the output contact window and the next starts at `f_i`; a step between
+/// identical positions counts [`PAPER_EPS_M`]. The discrepancy is the RMS deviation of those
+/// times from `linspace(min, max, N)`. `positions` are the warped object positions of every
+/// input frame (after the push-out, before retiming).
+pub fn paper_discrepancy(positions: &[Vector3<f64>], plan: &WarpPlan) -> f64 {
+    let n = positions.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let c0 = plan.segment.start as f64;
+    let window = (plan.t_end_new() as f64 - c0).max(1.0);
+    let inner = &plan.anchors[1..plan.anchors.len() - 1];
+    let mut bounds: Vec<(usize, f64)> = inner
+        .iter()
+        .map(|a| (a.t, (a.t_new as f64 - c0) / window))
+        .collect();
+    bounds.push((n, 1.0));
+    let mut t = vec![0.0; n];
+    let (mut start, mut prev) = (0usize, 0.0);
+    for &(end, target) in &bounds {
+        let end = end.min(n);
+        if end <= start {
+            continue;
+        }
+        let seg = &mut t[start..end];
+        seg[0] = 0.0;
+        for j in 1..seg.len() {
+            let d = positions[start + j] - positions[start + j - 1];
+            let step = if d == Vector3::zeros() {
+                PAPER_EPS_M
+            } else {
+                d.norm()
+            };
+            seg[j] = seg[j - 1] + step;
+        }
+        let total = seg[seg.len() - 1];
+        let m = seg.len();
+        for (j, v) in seg.iter_mut().enumerate() {
+            let u = if total > 0.0 {
+                *v / total
+            } else if m > 1 {
+                j as f64 / (m - 1) as f64
+            } else {
+                0.0
+            };
+            *v = u * (target - prev - PAPER_SEGMENT_GAP) + prev;
+        }
+        start = end;
+        prev = target;
+    }
+    let (lo, hi) = t
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
+    let sum: f64 = t
+        .iter()
+        .enumerate()
+        .map(|(i, &x)| (x - (lo + (hi - lo) * i as f64 / (n - 1) as f64)).powi(2))
+        .sum();
+    (sum / n as f64).sqrt()
 }
 
 /// Output-time weight of each step `f → f+1` for `f` in `a..b` (reuses `out`).
@@ -245,6 +384,12 @@ fn segment_weights(
             let floor = params.min_speed_fraction * total / m as f64;
             out.iter_mut().for_each(|w| *w += floor);
         }
+        RetimeMode::Paper => {
+            out.extend((a..b).map(|f| (warped[f + 1] - warped[f]).norm() + PAPER_EPS_M));
+            if out.iter().sum::<f64>() <= m as f64 * PAPER_EPS_M * 2.0 {
+                out.iter_mut().for_each(|w| *w = 1.0);
+            }
+        }
         RetimeMode::Speed => {
             const EPS: f64 = 1e-3;
             out.extend((a..b).map(|f| {
@@ -253,5 +398,97 @@ fn segment_weights(
                 ((l_new + EPS) / (l_old + EPS)).clamp(0.125, 8.0)
             }));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ContactSegment;
+    use nalgebra::UnitQuaternion;
+
+    /// 100 frames, contact 10..=90; the object rests on 10..=30 and 70..=90 and moves 0.4 m at
+    /// constant speed in between.
+    fn rest_move_rest() -> (ObjectPath, WarpPlan) {
+        let x = |i: usize| 0.01 * (i.clamp(30, 70) - 30) as f64;
+        let positions: Vec<Vector3<f64>> = (0..100).map(|i| Vector3::new(x(i), 0.0, 0.0)).collect();
+        let path = ObjectPath {
+            rotations: vec![UnitQuaternion::identity(); positions.len()],
+            positions,
+        };
+        let segment = ContactSegment {
+            start: 10,
+            end: 90,
+            gap_frames: 0,
+        };
+        let plan = WarpPlan::identity(&path.positions, segment);
+        (path, plan)
+    }
+
+    #[test]
+    fn paper_mode_gives_resting_frames_almost_no_time_and_stays_increasing() {
+        let (path, plan) = rest_move_rest();
+        let params = Params {
+            mode: RetimeMode::Paper,
+            ..Params::default()
+        };
+        let out = run(&path.positions, &path, &plan, &params).unwrap();
+        let tau = &out.timewarp.tau;
+        assert!(
+            tau.windows(2).all(|w| w[1] > w[0]),
+            "τ not strictly increasing"
+        );
+        let rest = tau[30] - tau[10];
+        assert!(rest < 1e-3, "20 resting frames took {rest} output frames");
+        // The 40 moving steps share the 80 output frames of the window: 2 frames each.
+        for f in 30..70 {
+            let step = tau[f + 1] - tau[f];
+            assert!((step - 2.0).abs() < 1e-3, "step {f}: {step}");
+        }
+        assert!(out.stats.max_anchor_error_m < 1e-9);
+        // Every output frame lies on the input path (no overshoot of the spline).
+        for p in &out.path.positions {
+            assert!(p.x > -1e-6 && p.x < 0.4 + 1e-6, "{p:?} off the path");
+        }
+        // The floored chord rule keeps time on the resting frames: 20 steps at the floor
+        // (5 % of the mean step 0.005 m) take 20·0.00025/0.42·80 ≈ 0.95 output frames.
+        let chord = run(&path.positions, &path, &plan, &Params::default()).unwrap();
+        let kept = chord.timewarp.tau[30] - chord.timewarp.tau[10];
+        assert!((kept - 0.952).abs() < 0.01, "{kept}");
+    }
+
+    #[test]
+    fn paper_discrepancy_is_zero_for_uniform_motion_and_matches_the_ideal_for_a_rest() {
+        let n = 101;
+        let uniform: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new(i as f64 * 0.01, 0.0, 0.0))
+            .collect();
+        let seg = ContactSegment {
+            start: 0,
+            end: n - 1,
+            gap_frames: 0,
+        };
+        let plan = WarpPlan::identity(&uniform, seg);
+        assert!(paper_discrepancy(&uniform, &plan) < 1e-12);
+
+        // The first 40 frames rest: their normalized times are ~0, the rest rise linearly.
+        let rest: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new(i.saturating_sub(40) as f64 * 0.01, 0.0, 0.0))
+            .collect();
+        // The code's segment ends at 1 − 0.001; the reference line spans min..max, so the
+        // gap scales the whole deviation by 0.999.
+        let scale = 1.0 - PAPER_SEGMENT_GAP;
+        let ideal: Vec<f64> = (0..n).map(|i| i.saturating_sub(40) as f64 / 60.0).collect();
+        let expected = (ideal
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (t - i as f64 / 100.0).powi(2))
+            .sum::<f64>()
+            / n as f64)
+            .sqrt()
+            * scale;
+        let got = paper_discrepancy(&rest, &WarpPlan::identity(&rest, seg));
+        assert!((got - expected).abs() < 1e-6, "{got} vs {expected}");
+        assert!(got > 0.1);
     }
 }

@@ -81,7 +81,14 @@ fn every_demo_loads_and_matches_its_robot() {
 fn every_config_loads_and_plans() {
     let limits = Limits::default();
     let configs = files("scenes/configs", ".json");
-    assert_eq!(configs.len(), 14, "{configs:?}");
+    // The paper's 12, its two generalization configs, and the timewarp stress configs.
+    let stress = |p: &std::path::PathBuf| p.to_string_lossy().contains("_timewarp_stress");
+    let paper = configs.iter().filter(|p| !stress(p)).count();
+    assert_eq!(paper, 14, "{configs:?}");
+    assert!(
+        configs.iter().filter(|p| stress(p)).count() >= 3,
+        "{configs:?}"
+    );
     for path in configs {
         let config = WarpConfig::load(&path, &limits).unwrap_or_else(|e| panic!("{e}"));
         let scene = Scene::load(&config.scene, &limits).unwrap();
