@@ -7,7 +7,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::stats::{Row, Stats};
+use super::stats::{Metric, Row, Stats};
 use crate::Result;
 use crate::model::json::write_atomic;
 
@@ -167,7 +167,7 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
     ));
     body.push_str("\n</figure>\n<h2>Kept samples</h2>\n<div class=\"grid\">\n");
     let kept: Vec<&Row> = rows.iter().filter(|r| r.status == "kept").collect();
-    let series: [(&str, &str, fn(&Row) -> Option<f64>); 4] = [
+    let series: [(&str, &str, Metric); 4] = [
         ("D_C", "D_C [mm]", |r| r.d_c_mm),
         ("D_WO change", "D_WO warped - original [mm]", |r| {
             r.d_wo_change_mm

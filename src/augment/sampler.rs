@@ -315,9 +315,16 @@ pub fn sample(spec: &Spec, ctx: &Context, seed: u64, index: u64) -> Sample {
                 let (lo, hi) = match &p.region {
                     Some(r) => (r.min, r.max),
                     None => {
-                        let e = face.half[0].max(face.half[1]);
+                        // The face shrunk by the margin (a square inside a disc).
+                        let shrink = if face.disc {
+                            std::f64::consts::FRAC_1_SQRT_2
+                        } else {
+                            1.0
+                        };
+                        let ex = ((face.half[0] - p.margin_m) * shrink).max(0.0);
+                        let ey = ((face.half[1] - p.margin_m) * shrink).max(0.0);
                         let c = face.pose.translation.vector;
-                        ([c.x - e, c.y - e], [c.x + e, c.y + e])
+                        ([c.x - ex, c.y - ey], [c.x + ex, c.y + ey])
                     }
                 };
                 let x = uniform(&mut rng, [lo[0], hi[0]]);

@@ -43,7 +43,8 @@ pub struct RectJson {
 
 /// Where a new start or end is sampled: exactly one of `support` or `box`.
 ///
-/// * `support`: x-y uniform in `region` (default: the support's top face), z = the top of the
+/// * `support`: x-y uniform in `region` (default: the support's top face shrunk by `margin_m`,
+///   for faces aligned with the world axes; a square inside a disc), z = the top of the
 ///   support plus the object's resting height in the demonstration (its height above the
 ///   support it rests on at the first, resp. last, in-contact frame). A sample whose x-y is
 ///   not on the top face shrunk by `margin_m` is rejected (`start_off_support`).

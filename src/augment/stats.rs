@@ -45,6 +45,9 @@ pub struct Row {
     pub frames_out: Option<usize>,
 }
 
+/// A per-sample figure of a row (`None` when the sample did not run).
+pub type Metric = fn(&Row) -> Option<f64>;
+
 /// The stable key of a physics verdict sentence (`physics::verdict` wording).
 pub fn physics_key(sentence: &str) -> String {
     const KEYS: [(&str, &str); 11] = [
@@ -311,7 +314,7 @@ impl Stats {
         s.pass_rate = ratio(s.passed, s.ran);
         s.original_d_c_mm = rows.iter().find_map(|r| r.d_c_original_mm);
         let kept: Vec<&Row> = rows.iter().filter(|r| r.status == "kept").collect();
-        let fields: [(&str, fn(&Row) -> Option<f64>); 4] = [
+        let fields: [(&str, Metric); 4] = [
             ("d_c_mm", |r| r.d_c_mm),
             ("d_wo_change_mm", |r| r.d_wo_change_mm),
             ("plr_object", |r| r.plr_object),

@@ -204,9 +204,12 @@ fn spec_error(edit: impl FnOnce(&mut serde_json::Value)) -> String {
     msg
 }
 
+/// A change to the wide spec.
+type Edit = Box<dyn FnOnce(&mut serde_json::Value)>;
+
 #[test]
 fn bad_specs_name_the_file_the_field_and_what_was_expected() {
-    let cases: Vec<(Box<dyn FnOnce(&mut serde_json::Value)>, &str, &str)> = vec![
+    let cases: Vec<(Edit, &str, &str)> = vec![
         (
             Box::new(|v| v["format"] = "dexwarp.config/1".into()),
             "format",
@@ -450,4 +453,56 @@ fn augment_runs_end_to_end_reruns_identically_and_shards_agree() {
     ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("missing"), "{}", stderr(&o));
+}
+
+/// The cluster examples of the README, dry-run here: the Slurm array script for the even
+/// indices, the Kubernetes Indexed Job's command for the odd ones, then the merge script.
+#[test]
+fn the_slurm_and_kubernetes_examples_shard_and_merge() {
+    let yaml = std::fs::read_to_string(repo("scripts/augment/k8s-job.yaml")).unwrap();
+    let sbatch = std::fs::read_to_string(repo("scripts/augment/slurm.sbatch")).unwrap();
+    assert!(yaml.contains("completionMode: Indexed") && yaml.contains("completions: 8"));
+    assert!(yaml.contains("parallelism: 8") && yaml.contains("{name: SHARDS, value: \"8\"}"));
+    assert!(yaml.contains("scripts/augment/shard.sh"));
+    assert!(sbatch.contains("#SBATCH --array=0-7") && sbatch.contains("SHARDS:-8"));
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("shared");
+    let env = |c: &mut Command| {
+        c.current_dir(repo("."))
+            .env("DEXWARP", env!("CARGO_BIN_EXE_dexwarp"))
+            .env("DEMO", "scenes/demos/small_box.demo.json")
+            .env("SPEC", "scenes/variations/small_box.json")
+            .env("COUNT", "4")
+            .env("JOBS", "1")
+            .env("OUT", &out)
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("JOB_COMPLETION_INDEX")
+            .env_remove("INDEX");
+    };
+    for k in 0..8 {
+        let mut c = Command::new("bash");
+        env(&mut c);
+        if k % 2 == 0 {
+            c.arg("scripts/augment/slurm.sbatch")
+                .env("SLURM_ARRAY_TASK_ID", k.to_string());
+        } else {
+            c.arg("scripts/augment/shard.sh")
+                .env("SHARDS", "8")
+                .env("JOB_COMPLETION_INDEX", k.to_string());
+        }
+        let o = c.output().unwrap();
+        assert!(o.status.success(), "shard {k}: {}", stderr(&o));
+    }
+    let mut c = Command::new("bash");
+    env(&mut c);
+    let o = c.arg("scripts/augment/merge.sh").output().unwrap();
+    assert!(o.status.success(), "merge: {}", stderr(&o));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["attempts"], 4);
+    assert_eq!(stats["shards"].as_array().unwrap().len(), 8);
+    assert_eq!(
+        stats["ran"].as_u64().unwrap() + stats["rejected"].as_u64().unwrap(),
+        4
+    );
 }
