@@ -14,6 +14,7 @@
 //! data model and its JSON formats, [`robot`] URDF hands and their kinematics, [`geometry`]
 //! meshes and shape queries.
 
+pub mod augment;
 pub mod batch;
 pub mod error;
 pub mod filter;

@@ -219,6 +219,40 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+    /// Sample N variations of a demonstration from a spec, run each with physics, and sort
+    /// them into DIR/kept and DIR/failed with the yield in DIR/stats.json and DIR/index.html.
+    #[command(
+        after_help = "The spec is a dexwarp.variations/1 file (README, \"augment\"); scenes/variations has one per built-in demonstration.\nSample i depends only on --seed and i: shards and reruns agree; finished samples are skipped unless --force.\n\nExamples:\n  dexwarp augment --demo scenes/demos/mug.demo.json --variations scenes/variations/mug.json --count 200 --seed 1 --out out/mug\n  dexwarp augment --demo scenes/demos/cube.demo.json --variations scenes/variations/cube.json --count 1000 --seed 1 --out /shared/cube --shard $SLURM_ARRAY_TASK_ID/8\n  dexwarp augment --merge /shared/cube --out /shared/cube"
+    )]
+    Augment {
+        /// Demonstration to vary (`dexwarp.demo/1`).
+        #[arg(long, value_name = "FILE", required_unless_present = "merge")]
+        demo: Option<PathBuf>,
+        /// Variation spec (`dexwarp.variations/1`).
+        #[arg(long, value_name = "FILE", required_unless_present = "merge")]
+        variations: Option<PathBuf>,
+        /// Number of variations to sample.
+        #[arg(long, value_name = "N", required_unless_present = "merge")]
+        count: Option<u64>,
+        /// Seed of the sampler.
+        #[arg(long, value_name = "S", default_value_t = 0)]
+        seed: u64,
+        /// Output folder: kept/, failed/, stats.json, samples.csv, index.html.
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Worker threads (default: one per core).
+        #[arg(long, value_name = "N", default_value_t = 0)]
+        jobs: usize,
+        /// Run only shard K of N (K is 0-based): samples whose index is K modulo N.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<dexwarp::batch::Shard>,
+        /// Redo samples that are already finished.
+        #[arg(long)]
+        force: bool,
+        /// Combine the shard files found in these folders into DIR (--out).
+        #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with_all = ["demo", "variations", "count", "shard"])]
+        merge: Vec<PathBuf>,
+    },
     /// Read the reports below DIR, keep what passes, and list why each of the rest was dropped.
     #[command(
         after_help = "Writes KEEP.csv (kept) and KEEP.dropped.csv (dropped, with every reason).\n\nExamples:\n  dexwarp filter reports/latest --out keep.csv\n  dexwarp filter out/batch --max-dc-mm 5 --min-converged 0.99 --out keep.csv"
@@ -592,6 +626,58 @@ fn run(cli: Cli) -> Result<()> {
                     outcomes.len()
                 );
             }
+            Ok(())
+        }
+        Command::Augment {
+            demo,
+            variations,
+            count,
+            seed,
+            out,
+            jobs,
+            shard,
+            force,
+            merge,
+        } => {
+            let aug = if merge.is_empty() {
+                let (Some(demo), Some(variations), Some(count)) = (demo, variations, count) else {
+                    anyhow::bail!("--demo, --variations and --count are required without --merge");
+                };
+                dexwarp::augment::run(&dexwarp::augment::AugmentOptions {
+                    demo,
+                    variations,
+                    count,
+                    seed,
+                    out: out.clone(),
+                    jobs,
+                    shard,
+                    force,
+                    limits,
+                    progress: true,
+                })?
+            } else {
+                dexwarp::augment::merge(&merge, &out, &limits)?
+            };
+            let s = &aug.stats;
+            let file = match shard {
+                Some(k) if merge.is_empty() => {
+                    format!("stats.shard-{}-of-{}.json", k.index, k.count)
+                }
+                _ => "stats.json".into(),
+            };
+            eprintln!(
+                "{} attempts: {} rejected, {} ran, {} kept, {} failed (yield {:.1} %); {} run now, {} already finished, {:.0} samples/hour; {}",
+                s.attempts,
+                s.rejected,
+                s.ran,
+                s.passed,
+                s.failed,
+                s.yield_ * 100.0,
+                s.timing.ran_now,
+                s.timing.skipped_now,
+                s.timing.samples_per_hour,
+                out.join(file).display()
+            );
             Ok(())
         }
         Command::Filter {

@@ -1,0 +1,225 @@
+//! `DIR/index.html` of an augment run, in the style of the reproduce report: the yield, the
+//! reasons of failure and rejection as a bar chart, the distributions of D_C, D_WO change, PLR
+//! and timewarp discrepancy over the kept samples (histograms), and a table of samples
+//! linking to their files. One self-contained page (inline SVG drawn with plotters, no script).
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::stats::{Metric, Row, Stats};
+use crate::Result;
+use crate::model::json::write_atomic;
+
+const W: u32 = 760;
+const BLUE: RGBColor = RGBColor(31, 119, 180);
+const ORANGE: RGBColor = RGBColor(255, 127, 14);
+/// Rows shown in the table; `samples.csv` lists all.
+const TABLE_ROWS: usize = 1000;
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// Horizontal bars, one per (label, count).
+fn bar_chart(title: &str, bars: &[(String, u64)]) -> String {
+    if bars.is_empty() {
+        return format!("<p class=\"note\">{}: none</p>", escape(title));
+    }
+    let h = 60 + 26 * bars.len() as u32;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, h)).into_drawing_area();
+        let _ = root.fill(&WHITE);
+        let max = bars.iter().map(|b| b.1).max().unwrap_or(1).max(1) as f64;
+        let n = bars.len();
+        let labels: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
+        let chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 16))
+            .margin(8)
+            .x_label_area_size(28)
+            .y_label_area_size(230)
+            .build_cartesian_2d(0.0..max * 1.1, -0.5..(n as f64 - 0.5));
+        let Ok(mut chart) = chart else {
+            return String::new();
+        };
+        let _ = chart
+            .configure_mesh()
+            .disable_y_mesh()
+            .y_labels(n)
+            .y_label_formatter(&|y: &f64| {
+                let i = y.round();
+                if (y - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() {
+                    labels[n - 1 - i as usize].clone()
+                } else {
+                    String::new()
+                }
+            })
+            .x_desc("samples")
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw();
+        let _ = chart.draw_series(bars.iter().enumerate().map(|(k, (label, v))| {
+            let y = (n - 1 - k) as f64;
+            let color = if label.starts_with("rejected") {
+                ORANGE
+            } else {
+                BLUE
+            };
+            Rectangle::new([(0.0, y - 0.35), (*v as f64, y + 0.35)], color.filled())
+        }));
+        let _ = root.present();
+    }
+    svg
+}
+
+/// A histogram of `values` in 20 bins.
+fn histogram(title: &str, x_label: &str, values: &[f64]) -> String {
+    let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return format!("<p class=\"note\">{}: no kept samples</p>", escape(title));
+    }
+    let (mut lo, mut hi) = v
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+    if hi - lo < 1e-9 {
+        lo -= 0.5;
+        hi += 0.5;
+    }
+    const BINS: usize = 20;
+    let width = (hi - lo) / BINS as f64;
+    let mut counts = [0u32; BINS];
+    for x in &v {
+        counts[(((x - lo) / width) as usize).min(BINS - 1)] += 1;
+    }
+    let top = *counts.iter().max().unwrap_or(&1) as f64;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W / 2 - 10, 260)).into_drawing_area();
+        let _ = root.fill(&WHITE);
+        let chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 15))
+            .margin(8)
+            .x_label_area_size(32)
+            .y_label_area_size(40)
+            .build_cartesian_2d(lo..hi, 0.0..top * 1.1);
+        let Ok(mut chart) = chart else {
+            return String::new();
+        };
+        let _ = chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc("kept samples")
+            .x_labels(5)
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw();
+        let _ = chart.draw_series(counts.iter().enumerate().map(|(k, &c)| {
+            let x0 = lo + k as f64 * width;
+            Rectangle::new([(x0, 0.0), (x0 + width, c as f64)], BLUE.filled())
+        }));
+        let _ = root.present();
+    }
+    svg
+}
+
+fn num(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(|| "-".into(), |x| format!("{x:.digits$}"))
+}
+
+/// Writes `out/index.html`.
+pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
+    let mut body = format!(
+        "<h1>dexwarp augment: {}</h1>\n<p class=\"prov\">demonstration {}, seed {}, {} samples, shards {}; {}</p>\n",
+        escape(&stats.spec),
+        escape(&stats.demo),
+        stats.seed,
+        stats.count,
+        escape(&stats.shards.join(", ")),
+        escape(&stats.tool)
+    );
+    body.push_str(&format!(
+        "<table><tr><th>attempts</th><th>rejected</th><th>ran</th><th>kept</th><th>failed</th><th>yield</th><th>pass rate of ran</th><th>D_C original [mm]</th><th>D_C kept, median [mm]</th></tr>\n<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1} %</td><td>{:.1} %</td><td>{}</td><td>{}</td></tr></table>\n",
+        stats.attempts,
+        stats.rejected,
+        stats.ran,
+        stats.passed,
+        stats.failed,
+        stats.yield_ * 100.0,
+        stats.pass_rate * 100.0,
+        num(stats.original_d_c_mm, 2),
+        num(stats.kept.get("d_c_mm").and_then(|s| s.median), 2),
+    ));
+    let mut bars: Vec<(String, u64)> = Vec::new();
+    for (prefix, map) in [
+        ("physics", &stats.failed_by_physics_reason),
+        ("ik", &stats.failed_by_ik_reason),
+        ("other", &stats.failed_by_other_reason),
+        ("rejected", &stats.rejected_by_reason),
+    ] {
+        bars.extend(map.iter().map(|(k, v)| (format!("{prefix}: {k}"), *v)));
+    }
+    body.push_str("<h2>Why samples were not kept</h2>\n<figure>\n");
+    body.push_str(&bar_chart(
+        "failed (blue, by reason; a sample may have several) and rejected before running (orange)",
+        &bars,
+    ));
+    body.push_str("\n</figure>\n<h2>Kept samples</h2>\n<div class=\"grid\">\n");
+    let kept: Vec<&Row> = rows.iter().filter(|r| r.status == "kept").collect();
+    let series: [(&str, &str, Metric); 4] = [
+        ("D_C", "D_C [mm]", |r| r.d_c_mm),
+        ("D_WO change", "D_WO warped - original [mm]", |r| {
+            r.d_wo_change_mm
+        }),
+        ("PLR (object)", "path length ratio", |r| r.plr_object),
+        ("timewarp discrepancy", "discrepancy", |r| {
+            r.timewarp_discrepancy
+        }),
+    ];
+    for (title, x, get) in series {
+        let values: Vec<f64> = kept.iter().filter_map(|r| get(r)).collect();
+        body.push_str(&format!(
+            "<figure>{}</figure>\n",
+            histogram(title, x, &values)
+        ));
+    }
+    body.push_str("</div>\n<h2>Samples</h2>\n");
+    if rows.len() > TABLE_ROWS {
+        body.push_str(&format!(
+            "<p class=\"note\">the first {TABLE_ROWS} of {}; samples.csv lists all</p>\n",
+            rows.len()
+        ));
+    }
+    body.push_str("<table>\n<tr><th>sample</th><th>status</th><th>waypoints</th><th>barriers</th><th>threshold [mm]</th><th>D_C [mm]</th><th>ΔD_WO [mm]</th><th>PLR</th><th>timewarp</th><th>files</th><th>reasons</th></tr>\n");
+    for r in rows.iter().take(TABLE_ROWS) {
+        let files = if r.status == "rejected" {
+            String::new()
+        } else {
+            let d = format!("{}/{}", r.status, r.id);
+            format!(
+                "<a href=\"{d}/config.json\">config</a> <a href=\"{d}/report.json\">report</a> <a href=\"{d}/frames.csv\">frames</a> <a href=\"{d}/\">folder</a>"
+            )
+        };
+        body.push_str(&format!(
+            "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{files}</td><td class=\"why\">{}</td></tr>\n",
+            escape(&r.id),
+            escape(&r.status),
+            escape(&r.status),
+            r.waypoints,
+            r.barriers,
+            r.threshold_mm,
+            num(r.d_c_mm, 2),
+            num(r.d_wo_change_mm, 1),
+            num(r.plr_object, 3),
+            num(r.timewarp_discrepancy, 3),
+            escape(&r.detail)
+        ));
+    }
+    body.push_str("</table>\n");
+    let page = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>dexwarp augment {}</title>\n<style>\nbody {{ font-family: sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }}\ntable {{ border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.9em; }}\nth, td {{ border: 1px solid #ccc; padding: 3px 8px; text-align: right; }}\nth:first-child, td:first-child {{ text-align: left; }}\ntd.why {{ text-align: left; font-size: 0.85em; color: #555; }}\ntd.kept {{ color: #2a7; }} td.failed {{ color: #c33; }} td.rejected {{ color: #c80; }}\n.grid {{ display: flex; flex-wrap: wrap; }}\nfigure {{ margin: 0.5em 0; }}\n.prov, .note {{ color: #555; font-size: 0.9em; }}\n</style>\n</head>\n<body>\n{body}</body>\n</html>\n",
+        escape(&stats.spec)
+    );
+    write_atomic(&out.join("index.html"), page.as_bytes())
+}

@@ -1,0 +1,370 @@
+//! The yield of an augment run: one row per sample (`samples.csv`) and `stats.json`.
+//!
+//! A sample is **rejected** (not run: infeasible by construction), **kept** (no error, physics
+//! `pass`, no narrow gap, IK converged on at least `keep.min_converged` of its frames, D_C at
+//! most `keep.max_dc_mm`) or **failed** (every reason listed). Reasons are stable keys:
+//! `physics:<check>` (from the physics verdict's sentences), `ik:not_converged`,
+//! `ik:d_c_above_max`, `narrow_gap`, `error`. A failed sample counts once under each of its
+//! reasons, so the reason counts can add up to more than `failed`.
+//!
+//! `stats.json` is a function of the rows alone, apart from its `timing` object (wall time,
+//! throughput, time per stage, samples skipped because they were already finished): two runs
+//! of the same spec, demonstration and seed give the same bytes outside `timing`.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::spec::KeepJson;
+use crate::model::report::Report;
+
+/// The `format` value of `stats.json`.
+pub const STATS_FORMAT: &str = "dexwarp.augment-stats/1";
+
+/// One sample of a run, as listed in `samples.csv`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    pub index: u64,
+    pub id: String,
+    /// `kept`, `failed` or `rejected`.
+    pub status: String,
+    /// Reason keys separated by `;` (empty when kept).
+    pub reasons: String,
+    /// The first reason in words.
+    pub detail: String,
+    pub waypoints: usize,
+    pub barriers: usize,
+    pub threshold_mm: f64,
+    pub d_c_mm: Option<f64>,
+    pub d_c_original_mm: Option<f64>,
+    /// D_WO of the output minus D_WO of the input [mm].
+    pub d_wo_change_mm: Option<f64>,
+    pub plr_object: Option<f64>,
+    pub timewarp_discrepancy: Option<f64>,
+    pub converged_fraction: Option<f64>,
+    pub frames_out: Option<usize>,
+}
+
+/// A per-sample figure of a row (`None` when the sample did not run).
+pub type Metric = fn(&Row) -> Option<f64>;
+
+/// The stable key of a physics verdict sentence (`physics::verdict` wording).
+pub fn physics_key(sentence: &str) -> String {
+    const KEYS: [(&str, &str); 11] = [
+        ("the simulation diverged", "diverged"),
+        ("object dropped", "dropped"),
+        ("object slipped", "slipped"),
+        ("mean object position error", "mean_position_error"),
+        ("object position error", "position_error"),
+        ("mean object rotation error", "rotation_error"),
+        ("hand-object penetration", "hand_object_penetration"),
+        ("hand-barrier penetration", "hand_barrier_penetration"),
+        ("object-barrier penetration", "object_barrier_penetration"),
+        ("simulation displacement", "unstable"),
+        ("released unsupported", "released_unsupported"),
+    ];
+    if let Some((_, k)) = KEYS.iter().find(|(p, _)| sentence.starts_with(p)) {
+        return format!("physics:{k}");
+    }
+    // A sentence we do not know yet: its words up to the first number or punctuation.
+    let head: String = sentence
+        .chars()
+        .take_while(|c| c.is_alphabetic() || *c == ' ' || *c == '-')
+        .collect();
+    let slug: Vec<&str> = head.split([' ', '-']).filter(|w| !w.is_empty()).collect();
+    format!("physics:{}", slug.join("_").to_lowercase())
+}
+
+/// Judges a report under `keep`: the status and every reason (keys and words).
+pub fn classify(report: &Report, keep: &KeepJson) -> (&'static str, Vec<String>, Vec<String>) {
+    let (mut keys, mut words) = (Vec::new(), Vec::new());
+    if let Some(e) = &report.error {
+        keys.push("error".to_string());
+        words.push(e.clone());
+        return ("failed", keys, words);
+    }
+    match &report.physics {
+        Some(p) if p.verdict == "pass" => {}
+        Some(p) => {
+            for r in &p.reasons {
+                keys.push(physics_key(r));
+                words.push(r.clone());
+            }
+            if p.reasons.is_empty() {
+                keys.push("physics:fail".into());
+                words.push(format!("physics verdict {}", p.verdict));
+            }
+        }
+        None => {
+            keys.push("physics:missing".into());
+            words.push("no physics verdict".into());
+        }
+    }
+    if let Some(ik) = &report.ik
+        && ik.converged_fraction < keep.min_converged
+    {
+        keys.push("ik:not_converged".into());
+        words.push(format!(
+            "IK met its threshold on {:.1}% of frames < {:.1}%",
+            ik.converged_fraction * 100.0,
+            keep.min_converged * 100.0
+        ));
+    }
+    if let Some(max) = keep.max_dc_mm
+        && report.metrics.d_c_mm.warped > max
+    {
+        keys.push("ik:d_c_above_max".into());
+        words.push(format!(
+            "D_C {:.2} mm > {max} mm",
+            report.metrics.d_c_mm.warped
+        ));
+    }
+    if let Some(gap) = &report.constraints.narrow_gap {
+        keys.push("narrow_gap".into());
+        words.push(format!(
+            "narrow gap: {} frames inside barrier(s) {}",
+            gap.frames.len(),
+            gap.barriers.join(", ")
+        ));
+    }
+    let status = if keys.is_empty() { "kept" } else { "failed" };
+    (status, keys, words)
+}
+
+/// Median, 10th and 90th percentile, mean, min and max of some values.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    pub n: usize,
+    pub median: Option<f64>,
+    pub p10: Option<f64>,
+    pub p90: Option<f64>,
+    pub mean: Option<f64>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+}
+
+/// Percentile `q` (0..1) of sorted values, linear between ranks.
+fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
+    if sorted.is_empty() {
+        return None;
+    }
+    let x = q * (sorted.len() - 1) as f64;
+    let (i, f) = (x.floor() as usize, x.fract());
+    let next = sorted[(i + 1).min(sorted.len() - 1)];
+    Some(sorted[i] + f * (next - sorted[i]))
+}
+
+impl Summary {
+    pub fn of(values: impl Iterator<Item = f64>) -> Summary {
+        let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+        v.sort_by(f64::total_cmp);
+        Summary {
+            n: v.len(),
+            median: percentile(&v, 0.5),
+            p10: percentile(&v, 0.1),
+            p90: percentile(&v, 0.9),
+            mean: (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64),
+            min: v.first().copied(),
+            max: v.last().copied(),
+        }
+    }
+}
+
+/// Time and throughput: the only part of `stats.json` that changes between identical runs.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Timing {
+    /// Wall time of the run (of the slowest shard after a merge) [s].
+    pub wall_s: f64,
+    /// Core-seconds: wall time times worker threads, summed over shards [s].
+    pub core_s: f64,
+    /// Worker threads of each shard.
+    pub threads: Vec<usize>,
+    /// Samples run in this invocation (the others were rejected or already finished).
+    pub ran_now: u64,
+    /// Samples skipped because they were already finished.
+    pub skipped_now: u64,
+    /// `ran_now` per hour of wall time.
+    pub samples_per_hour: f64,
+    /// `ran_now` per hour per core.
+    pub samples_per_hour_per_core: f64,
+    /// Time of each stage summed over the samples run now (worker time, not wall time) [s]:
+    /// `sample` (sampling and feasibility), `load`, the pipeline's stages, `write`.
+    pub stage_s: BTreeMap<String, f64>,
+    /// Each stage's share of the summed stage time.
+    pub stage_share: BTreeMap<String, f64>,
+}
+
+impl Timing {
+    /// Fills in the rates and shares from the sums.
+    pub fn finish(&mut self) {
+        self.samples_per_hour = rate(self.ran_now as f64, self.wall_s);
+        self.samples_per_hour_per_core = rate(self.ran_now as f64, self.core_s);
+        let total: f64 = self.stage_s.values().sum();
+        self.stage_share = self
+            .stage_s
+            .iter()
+            .map(|(k, v)| (k.clone(), if total > 0.0 { v / total } else { 0.0 }))
+            .collect();
+    }
+}
+
+fn rate(n: f64, seconds: f64) -> f64 {
+    if seconds > 0.0 {
+        n / seconds * 3600.0
+    } else {
+        0.0
+    }
+}
+
+/// `stats.json`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    pub format: String,
+    /// `dexwarp <version>`.
+    pub tool: String,
+    pub spec: String,
+    /// FNV-1a of the spec file, hex.
+    pub spec_hash: String,
+    pub demo: String,
+    pub seed: u64,
+    pub count: u64,
+    /// The shards these figures cover (`K/N`), or `["all"]`.
+    pub shards: Vec<String>,
+    pub attempts: u64,
+    pub rejected: u64,
+    pub rejected_by_reason: BTreeMap<String, u64>,
+    pub ran: u64,
+    pub passed: u64,
+    pub failed: u64,
+    pub failed_by_physics_reason: BTreeMap<String, u64>,
+    pub failed_by_ik_reason: BTreeMap<String, u64>,
+    pub failed_by_other_reason: BTreeMap<String, u64>,
+    /// `passed / attempts`.
+    #[serde(rename = "yield")]
+    pub yield_: f64,
+    /// `passed / ran`.
+    pub pass_rate: f64,
+    /// D_C of the demonstration itself [mm].
+    pub original_d_c_mm: Option<f64>,
+    /// Distributions over the kept samples: `d_c_mm`, `d_wo_change_mm`, `plr_object`,
+    /// `timewarp_discrepancy`.
+    pub kept: BTreeMap<String, Summary>,
+    /// The kept samples' median D_C is at most the demonstration's.
+    pub kept_median_d_c_no_worse: Option<bool>,
+    pub timing: Timing,
+}
+
+/// Identity of a run: what the figures are of.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunId {
+    pub spec: String,
+    pub spec_hash: u64,
+    pub demo: String,
+    pub seed: u64,
+    pub count: u64,
+    pub shards: Vec<String>,
+}
+
+impl Stats {
+    /// The figures of `rows` (sorted by index).
+    pub fn of(id: &RunId, rows: &[Row], timing: Timing) -> Stats {
+        let mut s = Stats {
+            format: STATS_FORMAT.into(),
+            tool: format!("dexwarp {}", env!("CARGO_PKG_VERSION")),
+            spec: id.spec.clone(),
+            spec_hash: format!("{:016x}", id.spec_hash),
+            demo: id.demo.clone(),
+            seed: id.seed,
+            count: id.count,
+            shards: id.shards.clone(),
+            attempts: rows.len() as u64,
+            timing,
+            ..Stats::default()
+        };
+        for r in rows {
+            let keys = r.reasons.split(';').filter(|k| !k.is_empty());
+            match r.status.as_str() {
+                "rejected" => {
+                    s.rejected += 1;
+                    for k in keys {
+                        *s.rejected_by_reason.entry(k.to_string()).or_default() += 1;
+                    }
+                }
+                "kept" => {
+                    s.ran += 1;
+                    s.passed += 1;
+                }
+                _ => {
+                    s.ran += 1;
+                    s.failed += 1;
+                    for k in keys {
+                        let map = if let Some(p) = k.strip_prefix("physics:") {
+                            (&mut s.failed_by_physics_reason, p)
+                        } else if let Some(p) = k.strip_prefix("ik:") {
+                            (&mut s.failed_by_ik_reason, p)
+                        } else {
+                            (&mut s.failed_by_other_reason, k)
+                        };
+                        *map.0.entry(map.1.to_string()).or_default() += 1;
+                    }
+                }
+            }
+        }
+        s.yield_ = ratio(s.passed, s.attempts);
+        s.pass_rate = ratio(s.passed, s.ran);
+        s.original_d_c_mm = rows.iter().find_map(|r| r.d_c_original_mm);
+        let kept: Vec<&Row> = rows.iter().filter(|r| r.status == "kept").collect();
+        let fields: [(&str, Metric); 4] = [
+            ("d_c_mm", |r| r.d_c_mm),
+            ("d_wo_change_mm", |r| r.d_wo_change_mm),
+            ("plr_object", |r| r.plr_object),
+            ("timewarp_discrepancy", |r| r.timewarp_discrepancy),
+        ];
+        for (name, get) in fields {
+            s.kept.insert(
+                name.to_string(),
+                Summary::of(kept.iter().filter_map(|r| get(r))),
+            );
+        }
+        s.kept_median_d_c_no_worse = match (s.kept["d_c_mm"].median, s.original_d_c_mm) {
+            (Some(m), Some(o)) => Some(m <= o),
+            _ => None,
+        };
+        s
+    }
+}
+
+fn ratio(a: u64, b: u64) -> f64 {
+    if b == 0 { 0.0 } else { a as f64 / b as f64 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn physics_sentences_get_stable_keys() {
+        assert_eq!(
+            physics_key("hand-object penetration 7.6 mm at frame 412 (a / b) > 5.0 mm; 3 frames"),
+            "physics:hand_object_penetration"
+        );
+        assert_eq!(
+            physics_key("object position error 12.0 mm at frame 3 > 10.0 mm"),
+            "physics:position_error"
+        );
+        assert_eq!(
+            physics_key("grip lost 3 times"),
+            "physics:grip_lost",
+            "unknown sentences keep their leading words"
+        );
+    }
+
+    #[test]
+    fn percentiles_interpolate_between_ranks() {
+        let s = Summary::of([4.0, 1.0, 3.0, 2.0, f64::NAN].into_iter());
+        assert_eq!(s.n, 4);
+        assert_eq!(s.median, Some(2.5));
+        assert!((s.p10.unwrap() - 1.3).abs() < 1e-12);
+        assert_eq!((s.min, s.max), (Some(1.0), Some(4.0)));
+    }
+}
