@@ -546,6 +546,7 @@ pub fn sample(spec: &Spec, ctx: &Context, seed: u64, index: u64) -> Sample {
         .collect();
     let config = ConfigFile {
         format: CONFIG_FORMAT.into(),
+        description: None,
         name: format!("{}_{id}", f.name),
         demo: ctx.demo_path.clone(),
         scene: if primitives.is_empty() {

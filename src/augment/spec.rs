@@ -263,7 +263,7 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 impl Spec {
     /// Reads and validates a spec.
     pub fn load(path: &Path, limits: &Limits) -> Result<Spec> {
-        let bytes = json::read_limited(path, limits.max_file_bytes, "--max-file-mb")?;
+        let bytes = json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
         let file: SpecFile = json::parse_json(path, &bytes)?;
         let mut spec = Spec::from_file(file, path)?;
         spec.hash = fnv1a(&bytes);
@@ -418,6 +418,7 @@ impl Spec {
         WarpConfig::from_file(
             ConfigFile {
                 format: CONFIG_FORMAT.into(),
+                description: None,
                 name: file.name.clone(),
                 demo: PathBuf::new(),
                 scene: PathBuf::new(),
