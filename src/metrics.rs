@@ -29,6 +29,25 @@ pub fn d_wo_mm(demo: &Demo) -> f64 {
         * 1e3
 }
 
+/// The deepest hand-object penetration over all frames of `demo` [mm]: the hand's
+/// penetration probes in the object's signed distance field (the measure the contact IK
+/// constrains and the physics check reports). 0 when the hand never enters the object.
+pub fn max_hand_object_penetration_mm(
+    robot: &Robot,
+    demo: &Demo,
+    sdf: &crate::geometry::ObjectSdf,
+) -> f64 {
+    let mut poses = robot.new_link_poses();
+    demo.frames
+        .iter()
+        .map(|f| {
+            robot.forward_kinematics(&f.wrist, &f.joints, &mut poses);
+            crate::robot::probes::deepest(robot, &poses, &f.object.inverse(), sdf)
+                .map_or(0.0, |(d, _)| d * 1e3)
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Mean correspondence distance of every frame [mm]; `None` for frames without contacts.
 /// The demonstration's joints must be in robot order ([`Demo::check_robot`]).
 pub fn contact_distance_per_frame_mm(robot: &Robot, demo: &Demo) -> Vec<Option<f64>> {

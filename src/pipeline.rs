@@ -507,6 +507,10 @@ fn report(
                 .map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
         },
         constraints: Constraints {
+            hand_object_penetration_mm: crate::geometry::object_sdf(mesh).map(|sdf| Pair {
+                original: metrics::max_hand_object_penetration_mm(robot, original, &sdf),
+                warped: metrics::max_hand_object_penetration_mm(robot, out, &sdf),
+            }),
             max_waypoint_error_mm: object.retime.stats.max_anchor_error_m * 1e3,
             min_object_barrier_clearance_mm: min_clearance,
             object_radius_mm: object.barrier.stats.object_radius_m * 1e3,

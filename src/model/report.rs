@@ -76,6 +76,10 @@ pub struct WorstFrame {
 /// Constraint checks on the output.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Constraints {
+    /// Deepest hand-object penetration over the frames, input and output [mm] (penetration
+    /// probes in the object's signed distance field).
+    #[serde(default)]
+    pub hand_object_penetration_mm: Option<Pair>,
     /// Largest distance between a waypoint (or the new start/end) and the output object at its
     /// output frame [mm].
     pub max_waypoint_error_mm: f64,

@@ -147,15 +147,19 @@ pub fn deepest(
     best
 }
 
-/// The deepest hand-object penetration [m] at one frame: `hand` the placed hand shapes,
-/// `object` the placed object parts (see [`deepest`]). One function so the measurement can
-/// be swapped without touching the rest of the checks.
+/// The deepest hand-object penetration at one frame: `(depth [m], link index, 0)`, from the
+/// hand's penetration probes ([`crate::robot::probes`]) in the object's signed distance
+/// field ([`crate::geometry::sdf`], exact for unions of overlapping parts, measured against
+/// the mesh rather than its convex parts). The IK keeps the same probes out of the same
+/// field, so the two agree on what "inside" means.
 pub fn hand_object_depth(
-    hand: &[Placed<'_>],
-    object: &[Placed<'_>],
-    unsupported: &mut usize,
+    robot: &Robot,
+    link_poses: &[Isometry3<f64>],
+    object_pose: &Isometry3<f64>,
+    sdf: &crate::geometry::ObjectSdf,
 ) -> Option<(f64, usize, usize)> {
-    deepest(hand, object, unsupported)
+    crate::robot::probes::deepest(robot, link_poses, &object_pose.inverse(), sdf)
+        .map(|(d, l)| (d, l.index(), 0))
 }
 
 /// Accumulates per-frame deepest penetrations into a [`Penetration`].

@@ -138,6 +138,10 @@ pub fn validate(
             "the mesh is degenerate (fewer than four non-coplanar vertices); expected a solid object",
         )
     })?;
+    // The object's signed distance field: the same one the IK keeps the fingers out of.
+    let sdf = crate::geometry::object_sdf(object_mesh).ok_or_else(|| {
+        Error::invalid(&demo.object.mesh, "triangles", "is empty; expected a solid object")
+    })?;
     let decomposition_s = start.elapsed().as_secs_f64();
 
     // 2. Scene: supports and the checked barriers, in scene order.
@@ -210,6 +214,7 @@ pub fn validate(
                 robot,
                 demo,
                 &object,
+                &sdf,
                 &solid,
                 &supports,
                 &barrier_names,
@@ -349,12 +354,14 @@ struct PenetrationRun {
 /// Penetration depths at the demonstration's poses (see [`checks`]): hand-object,
 /// hand-barrier, object-barrier, hand-support, the deepest pair per frame.
 ///
-/// The hand-object figure is one call, [`checks::hand_object_depth`], so its measurement can
-/// be replaced on its own.
+/// The hand-object figure is [`checks::hand_object_depth`]: the hand's penetration probes
+/// against the object's signed distance field, the measure the contact IK constrains. The
+/// others are parry contacts between the placed shapes.
 fn penetrations(
     robot: &Robot,
     demo: &Demo,
     object: &ObjectShape,
+    sdf: &crate::geometry::ObjectSdf,
     solid: &[(String, CollisionShape)],
     supports: &[(String, CollisionShape)],
     barrier_names: &[String],
@@ -380,7 +387,7 @@ fn penetrations(
         robot.forward_kinematics(&frame.wrist, &frame.joints, &mut link_poses);
         checks::place_hand(&shapes, &link_poses, &mut hand_placed);
         checks::place_object(object, &frame.object, &mut object_placed);
-        let hit = checks::hand_object_depth(&hand_placed, &object_placed, &mut unsupported[0]);
+        let hit = checks::hand_object_depth(robot, &link_poses, &frame.object, sdf);
         per_ho.push(hand_object.add(i, hit, &link_names, &object_names) * 1e3);
         let hit = checks::deepest(&hand_placed, &barrier_placed, &mut unsupported[1]);
         per_hb.push(hand_barrier.add(i, hit, &link_names, barrier_names) * 1e3);

@@ -26,7 +26,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::hand::ik::Solver;
+use crate::hand::ik::{Objective, Solver};
 use crate::hand::robustness::{Corruption, corrupt};
 use crate::model::report::Report;
 use crate::output::progress;
@@ -62,6 +62,8 @@ pub struct Variant {
     pub hand: HandMethod,
     pub solver: Solver,
     pub threshold_mm: f64,
+    /// IK objective (contact IK only).
+    pub objective: Objective,
     /// Robustness corruption (kind, fraction), if any.
     pub corruption: Option<(Corruption, f64)>,
 }
@@ -73,7 +75,17 @@ impl Variant {
             hand: HandMethod::Contact,
             solver,
             threshold_mm,
+            objective: Objective::NonPenetrating,
             corruption: None,
+        }
+    }
+
+    /// Contact IK with LM on the paper's objective as printed: `paper_lm_{t}mm`.
+    fn paper(threshold_mm: f64) -> Variant {
+        Variant {
+            name: format!("paper_lm_{threshold_mm}mm"),
+            objective: Objective::Paper,
+            ..Variant::contact(Solver::Lm, threshold_mm)
         }
     }
 }
@@ -185,6 +197,7 @@ pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
     for (k, c) in configs.iter().enumerate() {
         for t in THRESHOLDS_MM {
             jobs.push((c.clone(), Variant::contact(Solver::Lm, t)));
+            jobs.push((c.clone(), Variant::paper(t)));
         }
         if !options.quick || k < 3 {
             jobs.push((c.clone(), Variant::contact(Solver::Adam, 3.5)));
@@ -196,6 +209,7 @@ pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
                 hand: HandMethod::Baseline,
                 solver: Solver::Lm,
                 threshold_mm: 3.5,
+                objective: Objective::NonPenetrating,
                 corruption: None,
             },
         ));
@@ -216,6 +230,7 @@ pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
                         hand: HandMethod::Contact,
                         solver: Solver::Lm,
                         threshold_mm: 3.5,
+                        objective: Objective::NonPenetrating,
                         corruption: Some((kind, fraction)),
                     },
                 ));
@@ -273,7 +288,7 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
                 threshold_mm: Some(variant.threshold_mm),
                 hand: variant.hand,
                 solver: variant.solver,
-                objective: None,
+                objective: Some(variant.objective),
                 penetration_weight: None,
                 warm_start: None,
                 physics: Some(crate::physics::Params::default()),
