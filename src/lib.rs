@@ -1,6 +1,6 @@
 //! dexwarp: warp one contact-rich dexterous manipulation demonstration into many.
 //!
-//! The pipeline (see [`pipeline`] once it lands, and `METHOD.md`):
+//! The pipeline (see [`pipeline`] once it lands, and `docs/METHOD.md`):
 //! 1. spatial warp of the object through waypoints,
 //! 2. barrier push-out of the object,
 //! 3. temporal retiming (global C² B-spline and the timewarp τ),

@@ -1,4 +1,4 @@
-//! Kinematic quality metrics (METHOD.md "Metrics", paper "Quantitative evaluation").
+//! Kinematic quality metrics (docs/METHOD.md "Metrics", paper "Quantitative evaluation").
 //!
 //! * `D_WO`: mean over frames of `|wrist position − object origin|` [mm].
 //! * `D_C`: mean over in-contact frames of the mean correspondence distance

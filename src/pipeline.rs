@@ -1,4 +1,4 @@
-//! The pipeline: one function, one line per stage, in the order of METHOD.md.
+//! The pipeline: one function, one line per stage, in the order of docs/METHOD.md.
 //!
 //! [`warp`] runs, for one config:
 //! 1. spatial warp of the object through the waypoints ([`crate::warp::spatial`]),

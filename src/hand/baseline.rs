@@ -1,4 +1,4 @@
-//! The baseline hand warp (METHOD.md "Baseline", paper "Baseline comparison"): rigid SE(3)
+//! The baseline hand warp (docs/METHOD.md "Baseline", paper "Baseline comparison"): rigid SE(3)
 //! transfer of the demonstrated hand, the kind of augmentation MimicGen-style methods do.
 //!
 //! For each in-contact input frame `s`, the hand's pose relative to the object,

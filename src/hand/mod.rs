@@ -1,4 +1,4 @@
-//! Hand recovery (METHOD.md stage 4): the SE(3) baseline, and (per-frame contact IK and
+//! Hand recovery (docs/METHOD.md stage 4): the SE(3) baseline, and (per-frame contact IK and
 //! smoothing) the method itself; the barrier push-out of the hand outside contact.
 
 pub mod baseline;

@@ -1,4 +1,4 @@
-//! Barrier push-out of the hand outside the contact segment (beyond METHOD.md stage 4; the
+//! Barrier push-out of the hand outside the contact segment (beyond docs/METHOD.md stage 4; the
 //! paper's reference code does the same with a hand bounding radius).
 //!
 //! Outside the contact segment the hand follows the object's rigid shift of stage 1, so a new

@@ -1,4 +1,4 @@
-//! Corrupted correspondences for the robustness study (METHOD.md "Metrics", paper Fig.
+//! Corrupted correspondences for the robustness study (docs/METHOD.md "Metrics", paper Fig.
 //! "robustness"): D_C of the warped output when a fraction of the correspondences is deleted,
 //! or when object-point labels are permuted among pairs, from 0 % to 100 %.
 //!

@@ -1,4 +1,4 @@
-//! Stage 5: light smoothing of the recovered hand (METHOD.md stage 4 "Smoothing", paper
+//! Stage 5: light smoothing of the recovered hand (docs/METHOD.md stage 4 "Smoothing", paper
 //! "Hand Warping", last paragraph).
 //!
 //! Per-frame IK leaves small frame-to-frame jitter. Inside the contact segment only:

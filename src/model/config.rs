@@ -3,7 +3,7 @@
 //! A config names a demonstration and a scene, and asks for waypoints
 //! `w_j = (p_j, r_j, t_j, t'_j)` (world position, rotation imposed over the segment that ends
 //! at `w_j`, input frame, output frame), barriers (names of scene items with role `barrier`),
-//! and an optional new start and end position of the object (METHOD.md, Inputs).
+//! and an optional new start and end position of the object (docs/METHOD.md, Inputs).
 
 use std::path::{Path, PathBuf};
 
@@ -281,6 +281,12 @@ impl WarpConfig {
             p.penetration_weight,
             (0.0, 1e6),
             "weight",
+        )?;
+        c.in_range(
+            || "params.penetration_tolerance_mm".into(),
+            p.penetration_tolerance_mm,
+            (0.01, 100.0),
+            "mm",
         )?;
         c.non_negative(|| "params.hand_radius_m".into(), p.hand_radius_m, "m")?;
         if let Some(e) = p.end_t_new {

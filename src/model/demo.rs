@@ -156,7 +156,7 @@ pub struct ContactSegment {
     /// Last frame with correspondences (c1), inclusive.
     pub end: usize,
     /// Frames inside [c0, c1] without correspondences. The method treats [c0, c1] as one
-    /// segment anyway (METHOD.md, Inputs); reports state this count.
+    /// segment anyway (docs/METHOD.md, Inputs); reports state this count.
     pub gap_frames: usize,
 }
 

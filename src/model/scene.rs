@@ -2,7 +2,7 @@
 //!
 //! Every item is a `barrier` (the object and hand must avoid it; the warp pushes the object
 //! trajectory out of it) or a `support` (the object may rest on it: counters, shelves, plates).
-//! Supports matter for physics only, never for the push-out (METHOD.md, stage 2).
+//! Supports matter for physics only, never for the push-out (docs/METHOD.md, stage 2).
 //! Shapes follow URDF conventions: a box has full `size`, cylinders and capsules have their
 //! axis along the item's local z with total `length` (cylinder) or segment `length` (capsule).
 

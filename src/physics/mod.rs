@@ -1,4 +1,4 @@
-//! Stage 6: physics validation of a trajectory in Rapier (METHOD.md, "Physics validation").
+//! Stage 6: physics validation of a trajectory in Rapier (docs/METHOD.md, "Physics validation").
 //!
 //! [`validate`] replays one demonstration, warped or original, and judges it:
 //! 1. **object shape**: convex decomposition of the object mesh, cached per process and on
@@ -140,7 +140,11 @@ pub fn validate(
     })?;
     // The object's signed distance field: the same one the IK keeps the fingers out of.
     let sdf = crate::geometry::object_sdf(object_mesh).ok_or_else(|| {
-        Error::invalid(&demo.object.mesh, "triangles", "is empty; expected a solid object")
+        Error::invalid(
+            &demo.object.mesh,
+            "triangles",
+            "is empty; expected a solid object",
+        )
     })?;
     let decomposition_s = start.elapsed().as_secs_f64();
 

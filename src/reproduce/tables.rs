@@ -477,7 +477,11 @@ pub fn objectives_table(rep: &Reproduction) -> Table {
     let mut t = Table {
         file: "objectives".into(),
         title: "Contact IK (LM): non-penetrating objective (default) vs the paper's".into(),
-        header: vec!["Trajectory".into(), "D_C orig.".into(), "pen. orig. [mm]".into()],
+        header: vec![
+            "Trajectory".into(),
+            "D_C orig.".into(),
+            "pen. orig. [mm]".into(),
+        ],
         note: "Each cell: D_C [mm] / deepest hand-object penetration [mm] / physics verdict. \
                Original: the unwarped demonstration's own D_C and penetration."
             .into(),
@@ -504,7 +508,9 @@ pub fn objectives_table(rep: &Reproduction) -> Table {
                 let pen = r
                     .and_then(|r| r.constraints.hand_object_penetration_mm.as_ref())
                     .map(|p| p.warped);
-                if r.and_then(|r| r.physics.as_ref()).is_some_and(|p| p.verdict == "pass") {
+                if r.and_then(|r| r.physics.as_ref())
+                    .is_some_and(|p| p.verdict == "pass")
+                {
                     passes[2 * k + j] += 1;
                 }
                 row.push(format!(

@@ -29,6 +29,7 @@ use super::motion::{self, Motion, MotionParams, min_jerk};
 use super::objects::ObjectKind;
 use super::proximity::{ObjectGeometry, penetration};
 use super::templates;
+use crate::geometry::Mesh;
 use crate::model::demo::ObjectInfo;
 use crate::model::{Contact, Demo, Frame};
 use crate::robot::{CollisionShape, Robot, ShapeKind};
@@ -169,6 +170,18 @@ pub struct Synthesis {
     pub stats: SynthStats,
 }
 
+/// The object as a collision shape in its own frame (the grasp IK's penetration term).
+fn object_shape(mesh: &Mesh, path: &Path) -> Option<CollisionShape> {
+    CollisionShape::new(
+        ShapeKind::Mesh {
+            path: path.to_path_buf(),
+            scale: Vector3::repeat(1.0),
+            mesh: std::sync::Arc::new(mesh.clone()),
+        },
+        Isometry3::identity(),
+    )
+}
+
 /// Builds the demonstration `spec` asks for with `robot` (loaded from `robot_path`); the
 /// object mesh is the one of `spec.object`, referenced as `mesh_path` in the output (the
 /// file must exist when the demonstration is loaded again).
@@ -207,6 +220,8 @@ pub fn synthesize(
     let mesh = object.mesh();
     let geo = ObjectGeometry::new(mesh.clone())
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
+    let shape = object_shape(&mesh, mesh_path)
+        .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
 
     // Rest pose on the support, and the support as a barrier of the grasp IK.
     let yaw = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), spec.yaw_rad);
@@ -230,6 +245,7 @@ pub fn synthesize(
         robot,
         &template,
         &geo,
+        &shape,
         &start,
         std::slice::from_ref(&table),
         &spec.grasp,

@@ -231,6 +231,7 @@ pub fn solve(
     robot: &Robot,
     template: &GraspTemplate,
     object: &ObjectGeometry,
+    object_shape: &CollisionShape,
     object_pose: &Isometry3<f64>,
     barriers: &[CollisionShape],
     params: &GraspParams,
@@ -260,16 +261,21 @@ pub fn solve(
         max_iterations: params.max_iterations,
         barrier_weight: 0.0,
         objective: crate::hand::ik::Objective::Paper,
+        stall_decrease: 1e-6,
         ..IkParams::default()
     };
+    // The grasp's penetration term is the surface-point one on the object's triangle mesh:
+    // a grasp holds by pressing its fingertips on the surface, which the warp's stricter
+    // probes would refuse (and the committed demonstrations were made with it).
     let careful = IkParams {
         margin_m: 0.01,
         barrier_weight: 0.1,
-        objective: crate::hand::ik::Objective::NonPenetrating,
+        surface_penetration_weight: 1.0,
         ..plain.clone()
     };
     let mut solver = IkSolver::new(robot, barriers, Some(&object.sdf), plain);
-    let mut fine = IkSolver::new(robot, barriers, Some(&object.sdf), careful);
+    let mut fine = IkSolver::new(robot, barriers, Some(&object.sdf), careful)
+        .with_surface_object(object_shape);
     let mut best: Option<(f64, Isometry3<f64>, Vec<f64>, crate::hand::ik::FrameResult)> = None;
     for (ax, ay) in TURNS {
         let turn = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), ax)
@@ -444,6 +450,15 @@ mod tests {
             for object in objects {
                 let mesh = object.mesh();
                 let geo = ObjectGeometry::new(mesh.clone()).unwrap();
+                let shape = CollisionShape::new(
+                    ShapeKind::Mesh {
+                        path: "x.obj".into(),
+                        scale: Vector3::repeat(1.0),
+                        mesh: std::sync::Arc::new(mesh),
+                    },
+                    Isometry3::identity(),
+                )
+                .unwrap();
                 let pose = Isometry3::translation(0.0, 0.0, 0.9 - geo.min_z);
                 let table = CollisionShape::new(
                     ShapeKind::Box {
@@ -458,6 +473,7 @@ mod tests {
                     &robot,
                     &t,
                     &geo,
+                    &shape,
                     &pose,
                     std::slice::from_ref(&table),
                     &GraspParams::default(),

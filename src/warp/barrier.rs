@@ -1,4 +1,4 @@
-//! Stage 2: barrier push-out of the object (METHOD.md stage 2, paper "Barrier-Constrained
+//! Stage 2: barrier push-out of the object (docs/METHOD.md stage 2, paper "Barrier-Constrained
 //! Object Warping").
 //!
 //! The object is bounded by the ball `B_r` about its origin, `r` = largest distance from the

@@ -1,4 +1,4 @@
-//! The object stages of the warp (METHOD.md stages 1-3): spatial warp through waypoints,
+//! The object stages of the warp (docs/METHOD.md stages 1-3): spatial warp through waypoints,
 //! barrier push-out, temporal retiming.
 
 pub mod barrier;
@@ -102,7 +102,7 @@ impl ObjectWarp {
     }
 }
 
-/// Runs stages 1-3 on the object path `input` (METHOD.md): spatial warp through the anchors,
+/// Runs stages 1-3 on the object path `input` (docs/METHOD.md): spatial warp through the anchors,
 /// barrier push-out, retiming. `object_radius` is the bounding radius of the object mesh;
 /// `config_source` names the config in conflict messages.
 pub fn warp_object(

@@ -1,4 +1,4 @@
-//! The warp plan: waypoints completed with the implicit start and end (METHOD.md, stage 1).
+//! The warp plan: waypoints completed with the implicit start and end (docs/METHOD.md, stage 1).
 //!
 //! The waypoint list is `[w_start, w_1..w_k, w_end]` with
 //! `w_start = (p'_start or x(c0), identity, c0, c0)` and

@@ -1,11 +1,11 @@
-//! Stage 3: temporal retiming (METHOD.md stage 3, paper "Temporal Waypoint-Constrained Object
+//! Stage 3: temporal retiming (docs/METHOD.md stage 3, paper "Temporal Waypoint-Constrained Object
 //! Warping").
 //!
 //! 1. For each segment between consecutive anchors (input frames `t_i..=t_{i+1}`), a normalized
 //!    timewarp `τ_i: [0,1] → [0,1]` is built from the segment's positions, then scaled and
 //!    shifted to `[t'_i, t'_{i+1}]`; composing them gives the global timewarp `τ`: input frame →
 //!    output time (real-valued, strictly increasing). Two rules:
-//!    * `chord` (METHOD.md, the paper; default): `τ_i` maps uniform time to the chord-length
+//!    * `chord` (docs/METHOD.md, the paper; default): `τ_i` maps uniform time to the chord-length
 //!      parameter of the segment, so the object moves at constant speed along each segment.
 //!      Each step's length is floored at `min_speed_fraction` of the segment's mean step, so
 //!      frames where the object rests still take time and `τ` stays strictly increasing.

@@ -1,5 +1,5 @@
 //! Stage 1: spatial warp of the object through the waypoints (paper Alg. 1,
-//! `TransformSegment`, in the continuous form of METHOD.md).
+//! `TransformSegment`, in the continuous form of docs/METHOD.md).
 //!
 //! For the segment between anchors `i` and `i+1` (input frames `t_i..=t_{i+1}`):
 //!
@@ -19,7 +19,7 @@
 //! pre-contact frames by `T_pre = translate(p'_start − x(c0))`, post-contact frames by
 //! `T_post = translate(p'_end) · C_end · translate(−x(c1))`, the rigid motion that carries the
 //! object's pose at `c1` onto the warped pose at `c1`. With no rotation waypoints this is the
-//! plain shift of METHOD.md; with them, the hand keeps its pose relative to the object while it
+//! plain shift of docs/METHOD.md; with them, the hand keeps its pose relative to the object while it
 //! releases and retreats.
 
 use std::time::Instant;

@@ -91,9 +91,16 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
     );
     // Render it in a real browser (CI installs Debian's chromium; see .ci/run).
     let profile = tempfile::tempdir().unwrap();
-    let dom = rendered_dom(&page, profile.path()).expect(
-        "headless chromium must be installed to check the report (apt-get install chromium)",
-    );
+    let Some(dom) = rendered_dom(&page, profile.path()) else {
+        // Required in CI (.ci/run installs chromium); a notice elsewhere, so `cargo test`
+        // passes on a fresh machine without a browser.
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "headless chromium must be installed to check the report (apt-get install chromium)"
+        );
+        eprintln!("note: chromium not found; the rendered-page checks of the report were skipped");
+        return;
+    };
     let tables = dom.matches("<table").count();
     let svgs = dom.matches("<svg").count();
     assert!(

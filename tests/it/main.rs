@@ -7,6 +7,7 @@ mod html;
 mod ik;
 mod kinematics;
 mod model;
+mod nonpen;
 mod one_verdict;
 mod physics;
 mod physics_regression;

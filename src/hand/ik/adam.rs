@@ -116,6 +116,17 @@ impl IkSolver<'_> {
                 });
             }
         }
+        if let (Some(shape), Some(obstacle)) = (self.surface_object, &self.surface_obstacle) {
+            let (m, w) = (p.margin_m, p.surface_penetration_weight);
+            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
+                // d(w (−d/m)²) = 2w d/m² ∇d.
+                let coeff = 2.0 * w * d / (m * m);
+                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                for &a in geo.cols(l) {
+                    g[a] += coeff * grad.dot(&jac[a]);
+                }
+            });
+        }
         if let (Some(sdf), Some(object_from_world)) = (geo.object, &self.object_from_world) {
             let a = 0.5 * p.penetration_tolerance_mm * 1e-3;
             let w = p.penetration_weight;

@@ -91,6 +91,19 @@ impl IkSolver<'_> {
                 });
             }
         }
+        if let (Some(shape), Some(obstacle)) = (self.surface_object, &self.surface_obstacle) {
+            let m = p.margin_m;
+            let sw = p.surface_penetration_weight.sqrt();
+            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
+                let e = sw * (-d) / m;
+                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
+                let cols = geo.cols(l);
+                for &a in cols {
+                    row[a] = -sw / m * grad.dot(&jac[a]);
+                }
+                Self::add_row(h, g, n, cols, row, e);
+            });
+        }
         if let (Some(sdf), Some(object_from_world)) = (geo.object, &self.object_from_world) {
             let a = 0.5 * p.penetration_tolerance_mm * 1e-3;
             let sw = p.penetration_weight.sqrt();
@@ -228,9 +241,10 @@ impl IkSolver<'_> {
             self.q_trial = q_trial;
             let gain = (cur.total(nc) - next.total(nc)) / pred.max(1e-300);
             if gain > 0.0 && next.total(nc).is_finite() {
-                // A decrease below STALL_DECREASE of F cannot carry the frame to the
+                // A decrease below `stall_decrease` of F cannot carry the frame to the
                 // threshold in any useful number of iterations: a local minimum.
-                stalled = cur.total(nc) - next.total(nc) < STALL_DECREASE * cur.total(nc);
+                stalled =
+                    cur.total(nc) - next.total(nc) < self.params.stall_decrease * cur.total(nc);
                 *wrist = trial_wrist;
                 q.copy_from_slice(&self.q_trial);
                 std::mem::swap(&mut self.poses, &mut self.trial_poses);

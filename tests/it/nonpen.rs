@@ -1,0 +1,173 @@
+//! Contact IK whose outputs are physical: fingers kept out of the object by default, an
+//! honest stop rule, and the rigid transfer kept where it is exact.
+
+use std::path::Path;
+
+use dexwarp::Limits;
+use dexwarp::hand::ik::{Objective, Solver, StopReason};
+use dexwarp::model::config::{ConfigFile, WarpConfig};
+use dexwarp::pipeline::{self, HandMethod, Inputs, Options};
+
+use crate::fixtures::repo;
+
+fn warp(
+    config: &Path,
+    objective: Objective,
+    solver: Solver,
+    hand: HandMethod,
+) -> pipeline::WarpRun {
+    let inputs = Inputs::load(config, None, &Limits::default()).expect("config loads");
+    pipeline::warp(
+        &inputs,
+        &Options {
+            threshold_mm: Some(3.5),
+            objective: Some(objective),
+            solver,
+            hand,
+            ..Options::default()
+        },
+    )
+    .expect("warp runs")
+}
+
+/// At 3.5 mm the default objective keeps the deepest finger within the original's depth plus
+/// 1 mm and D_C at or below the original's, where the paper's objective presses fingers in;
+/// every frame that misses the stop rule says why.
+#[test]
+fn default_objective_keeps_fingers_out_where_the_paper_presses_in() {
+    for name in ["mug_pass_wall", "cube_messy"] {
+        let config = repo(&format!("scenes/configs/{name}.json"));
+        let ours = warp(
+            &config,
+            Objective::NonPenetrating,
+            Solver::Lm,
+            HandMethod::Contact,
+        );
+        let paper = warp(&config, Objective::Paper, Solver::Lm, HandMethod::Contact);
+        let pen = |r: &pipeline::WarpRun| {
+            r.report
+                .constraints
+                .hand_object_penetration_mm
+                .clone()
+                .unwrap()
+        };
+        let (po, pp) = (pen(&ours), pen(&paper));
+        let dc = &ours.report.metrics.d_c_mm;
+        eprintln!(
+            "{name}: penetration original {:.2} mm, default {:.2} mm, paper {:.2} mm; D_C original {:.2}, default {:.2}, paper {:.2} mm",
+            po.original,
+            po.warped,
+            pp.warped,
+            dc.original,
+            dc.warped,
+            paper.report.metrics.d_c_mm.warped
+        );
+        assert!(po.warped <= po.original + 1.0, "{name}: {po:?}");
+        assert!(dc.warped <= dc.original, "{name}: D_C {dc:?}");
+        assert!(
+            pp.warped > po.warped + 1.0,
+            "{name}: paper {pp:?} vs default {po:?}"
+        );
+        let ik = ours.report.ik.as_ref().unwrap();
+        let counted: usize = ik.stop_reasons.values().sum();
+        assert_eq!(
+            counted,
+            ik.not_converged_frames.len(),
+            "{name}: {:?}",
+            ik.stop_reasons
+        );
+        assert!(!ik.stop_reasons.contains_key("converged"));
+    }
+}
+
+/// Neither solver returns a frame with a higher objective than its warm start.
+#[test]
+fn no_frame_ends_worse_than_its_warm_start() {
+    use dexwarp::hand::{baseline, ik};
+    let config = repo("scenes/configs/mug_pass_wall.json");
+    let inputs = Inputs::load(&config, None, &Limits::default()).unwrap();
+    let run = warp(
+        &config,
+        Objective::NonPenetrating,
+        Solver::Lm,
+        HandMethod::Baseline,
+    );
+    let sdf = dexwarp::geometry::object_sdf(&inputs.mesh).unwrap();
+    let barriers =
+        pipeline::barrier_shapes(&inputs.config, &inputs.scene, &Limits::default()).unwrap();
+    let init = baseline::run(&inputs.demo, &run.object).unwrap();
+    for solver in [Solver::Lm, Solver::Adam] {
+        let params = ik::Params {
+            solver,
+            max_iterations: if solver == Solver::Adam { 200 } else { 0 },
+            warm_start: ik::WarmStart::FollowObject,
+            ..ik::Params::default()
+        };
+        let (_, stats) = ik::run(
+            &inputs.robot,
+            &inputs.demo,
+            &run.object,
+            &init,
+            &barriers,
+            Some(&sdf),
+            &params,
+        );
+        for (k, f) in stats.frames.iter().enumerate() {
+            assert!(
+                f.objective_end <= f.objective_start * (1.0 + 1e-12) + 1e-15,
+                "{solver:?} frame {k}: F {} after, {} at the warm start ({:?})",
+                f.objective_end,
+                f.objective_start,
+                f.stop
+            );
+            assert_eq!(f.converged, f.stop == StopReason::Converged);
+        }
+    }
+}
+
+/// A pure translation of the whole demonstration by 25 cm (past α, so the blend is linear),
+/// timing kept: contact IK gives back the rigid transfer within 1 mm at every frame.
+#[test]
+fn a_pure_translation_returns_the_rigid_transfer() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = repo("scenes/configs/cube_messy.json");
+    let text = std::fs::read_to_string(&src).unwrap();
+    let mut file: ConfigFile = serde_json::from_str(&text).unwrap();
+    let demo_path = repo("scenes/demos/cube.demo.json");
+    let demo = dexwarp::model::Demo::load(&demo_path, &Limits::default()).unwrap();
+    let seg = demo.contact_segment().unwrap();
+    let shift = nalgebra::Vector3::new(0.25, 0.0, 0.0);
+    let p0 = demo.frames[seg.start].object.translation.vector + shift;
+    let p1 = demo.frames[seg.end].object.translation.vector + shift;
+    file.name = "translated".into();
+    file.demo = demo_path.clone();
+    file.scene = repo("scenes/kitchen.json");
+    file.waypoints.clear();
+    file.barriers.clear();
+    file.start = Some([p0.x, p0.y, p0.z]);
+    file.end = Some([p1.x, p1.y, p1.z]);
+    file.params.retime = dexwarp::warp::retime::RetimeMode::Speed;
+    file.params.threshold_mm = 10.0;
+    let path = dir.path().join("translated.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&file).unwrap()).unwrap();
+    let _ = WarpConfig::load(&path, &Limits::default()).expect("the translated config loads");
+    let inputs = Inputs::load(&path, None, &Limits::default()).unwrap();
+    let opts = |hand| Options {
+        hand,
+        ..Options::default()
+    };
+    let ik = pipeline::warp(&inputs, &opts(HandMethod::Contact)).unwrap();
+    let rigid = pipeline::warp(&inputs, &opts(HandMethod::Baseline)).unwrap();
+    assert_eq!(ik.demo.frames.len(), demo.frames.len());
+    let mut worst = 0.0f64;
+    for (a, b) in ik.demo.frames.iter().zip(&rigid.demo.frames) {
+        worst = worst.max((a.wrist.translation.vector - b.wrist.translation.vector).norm());
+        let moved = a.wrist.translation.vector - b.wrist.translation.vector;
+        assert!(
+            moved.norm() < 1e-3,
+            "wrist {:.3} mm off the rigid transfer",
+            moved.norm() * 1e3
+        );
+    }
+    eprintln!("largest wrist difference {:.4} mm", worst * 1e3);
+}
