@@ -280,7 +280,7 @@ fn bad_specs_name_the_file_the_field_and_what_was_expected() {
         (
             Box::new(|v| v["params"] = serde_json::json!({"alpha_m": -1})),
             "params.alpha_m",
-            "> 0",
+            "expected a number from",
         ),
         (
             Box::new(|v| v["startt"] = serde_json::json!({})),

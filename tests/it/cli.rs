@@ -377,7 +377,8 @@ fn reproduce_runs_on_a_scene_folder_and_refuses_a_folder_without_configs() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("5 runs"), "{}", stderr(&o));
+    // Three LM thresholds on each objective, Adam and the baseline for the one config.
+    assert!(stderr(&o).contains("8 runs"), "{}", stderr(&o));
     assert!(out.join("summary.md").is_file() && out.join("index.html").is_file());
     let o = dexwarp(&[
         "reproduce",

@@ -53,10 +53,10 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         progress: false,
     })
     .unwrap();
-    // Three LM thresholds, Adam and the baseline for the one config.
+    // Three LM thresholds on each objective, Adam and the baseline for the one config.
     assert_eq!(
         rep.runs.len(),
-        5,
+        8,
         "{:?}",
         rep.runs.iter().map(|r| &r.variant.name).collect::<Vec<_>>()
     );

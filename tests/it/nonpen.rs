@@ -44,13 +44,7 @@ fn default_objective_keeps_fingers_out_where_the_paper_presses_in() {
             HandMethod::Contact,
         );
         let paper = warp(&config, Objective::Paper, Solver::Lm, HandMethod::Contact);
-        let pen = |r: &pipeline::WarpRun| {
-            r.report
-                .constraints
-                .hand_object_penetration_mm
-                .clone()
-                .unwrap()
-        };
+        let pen = |r: &pipeline::WarpRun| r.report.constraints.hand_object_penetration_mm.unwrap();
         let (po, pp) = (pen(&ours), pen(&paper));
         let dc = &ours.report.metrics.d_c_mm;
         eprintln!(
