@@ -52,9 +52,9 @@
 //! `μ·diag(H)`, Nielsen's damping update, and a Cholesky factorization into preallocated
 //! storage; joints at a limit whose gradient pushes outward are frozen for the step, and
 //! every trial is clamped to the limits. Each linear solve counts as one iteration. LM also
-//! stops early, not converged, at a local minimum that misses the threshold (an accepted
-//! step lowers `F` by less than 1e-6 of itself, or the step vanishes): typically a barrier
-//! the hand cannot clear while keeping its contacts.
+//! stops early, not converged, at a local minimum that misses the stop rule (an accepted
+//! step lowers `F` by less than [`Params::stall_decrease`] of itself, or the step vanishes):
+//! typically fingers that cannot come closer without pressing in, or a barrier.
 //!
 //! **`adam`**: the paper's solver, faithful: Adam (β = 0.9, 0.999, ε = 1e-8, learning rate
 //! 0.01, moments reset every frame) on exactly `F` (no proximal term; with the paper's
@@ -95,8 +95,8 @@ const MU_INIT: f64 = 1e-3;
 /// Damping beyond which LM gives up (the model no longer predicts any decrease).
 const MU_MAX: f64 = 1e12;
 /// LM stops (not converged) when an accepted step lowers `F` by less than
-/// [`Params::stall_decrease`] of itself, or ...
-/// ... or when its largest component is below this [m or rad].
+/// [`Params::stall_decrease`] of itself, or when the step's largest component is below this
+/// [m or rad].
 const STALL_STEP: f64 = 1e-10;
 
 /// The optimizer of the per-frame problem.
