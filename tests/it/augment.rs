@@ -2,7 +2,7 @@
 //! to end through the command line with a rerun, shards and a merge.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::sync::LazyLock;
 
 use dexwarp::Limits;
@@ -11,18 +11,7 @@ use dexwarp::augment::spec::Spec;
 use dexwarp::model::Demo;
 use proptest::prelude::*;
 
-use crate::fixtures::repo;
-
-fn dexwarp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dexwarp"))
-        .args(args)
-        .output()
-        .expect("run dexwarp")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use crate::fixtures::{dexwarp, repo, stderr};
 
 /// A spec that uses every option, on the cube demonstration.
 fn wide_spec() -> serde_json::Value {

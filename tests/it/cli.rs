@@ -1,21 +1,8 @@
 //! The command line, end to end, in a temporary folder: every command, errors included.
 
-use std::process::{Command, Output};
-
 use dexwarp::model::demo::Demo;
 
-use crate::fixtures::{gripper_fixture, repo};
-
-fn dexwarp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dexwarp"))
-        .args(args)
-        .output()
-        .expect("run dexwarp")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use crate::fixtures::{dexwarp, gripper_fixture, repo, stderr};
 
 #[test]
 fn robot_prints_the_hand_and_refuses_bad_files() {

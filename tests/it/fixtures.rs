@@ -99,3 +99,16 @@ pub fn gripper_fixture(dir: &Path) -> PathBuf {
     .unwrap();
     config
 }
+
+/// Runs the `dexwarp` binary with `args`.
+pub fn dexwarp(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_dexwarp"))
+        .args(args)
+        .output()
+        .expect("run dexwarp")
+}
+
+/// The standard error of a finished run, as text.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use dexwarp::pipeline::{self, HandMethod, Inputs, Options};
@@ -12,18 +12,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde_json::Value;
 
-use crate::fixtures::gripper_fixture;
-
-fn dexwarp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dexwarp"))
-        .args(args)
-        .output()
-        .expect("run dexwarp")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use crate::fixtures::{dexwarp, gripper_fixture, stderr};
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
