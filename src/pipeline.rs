@@ -7,7 +7,8 @@
 //! 4. hand recovery: per-frame contact IK ([`crate::hand::ik`]) warm-started from the SE(3)
 //!    baseline ([`crate::hand::baseline`]), or the baseline alone; outside the contact
 //!    segment the hand's path is pushed out of the barriers ([`crate::hand::pushout`]),
-//! 5. smoothing of the hand (contact IK only),
+//! 5. smoothing of the hand (contact IK only), and with the non-penetrating objective the
+//!    guard that keeps it from pressing the hand into the object ([`crate::hand::guard`]),
 //! 6. physics replay in Rapier ([`crate::physics`]),
 //! 7. metrics ([`crate::metrics`]),
 //! 8. report ([`crate::model::report`]).
@@ -20,13 +21,14 @@ use rapier3d_f64::parry::query;
 use rapier3d_f64::parry::shape::SharedShape;
 
 use crate::geometry::Mesh;
-use crate::hand::ik::{self, Solver};
-use crate::hand::{HandPath, baseline, pushout, smooth};
+use crate::hand::ik::{self, Objective, Solver};
+use crate::hand::{HandPath, baseline, guard, pushout, smooth};
 use crate::math::convert::to_pose;
 use crate::metrics;
 use crate::model::provenance::Provenance;
 use crate::model::report::{
-    Constraints, ContactDistance, IkSummary, Metrics, Pair, REPORT_FORMAT, Report, WorstFrame,
+    Constraints, ContactDistance, GuardSummary, IkSummary, Metrics, Pair, REPORT_FORMAT, Report,
+    WorstFrame,
 };
 use crate::model::{Demo, Frame, Scene, WarpConfig};
 use crate::output::frames::FrameRow;
@@ -209,6 +211,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         provenance.parameters("physics", p);
     }
     let mut unsmoothed: Option<HandPath> = None;
+    let mut guard_stats: Option<guard::Stats> = None;
     let (hand, ik_stats) = match options.hand {
         HandMethod::Baseline => (base, None),
         HandMethod::Contact => {
@@ -243,9 +246,28 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             // Stage 5: smoothing inside the contact segment.
             let clock = Instant::now();
             let range = object.plan.segment.start..=object.plan.t_end_new();
-            let (hand, _) = smooth::run(&raw, range, &smooth::Params::default())
+            let (mut hand, _) = smooth::run(&raw, range.clone(), &smooth::Params::default())
                 .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
             timing.insert("smooth".into(), clock.elapsed().as_secs_f64());
+
+            // Stage 5b: the smoothing may not press the hand deeper than the IK left it.
+            if let (Objective::NonPenetrating, Some(sdf)) = (params.objective, &object_sdf) {
+                let guard_params = guard::Params {
+                    tolerance_m: params.penetration_tolerance_mm * 1e-3,
+                    ..guard::Params::default()
+                };
+                let g = guard::run(
+                    robot,
+                    sdf,
+                    |t| object.path().pose(t),
+                    &raw,
+                    &mut hand,
+                    range,
+                    &guard_params,
+                );
+                timing.insert("smooth_guard".into(), g.time_s);
+                guard_stats = Some(g);
+            }
             unsmoothed = Some(raw);
             (hand, Some(stats))
         }
@@ -330,6 +352,12 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
                 .map(|(r, n)| (r.as_str().to_string(), *n))
                 .collect(),
             max_penetration_mm: Some(st.max_penetration_mm),
+            smoothing_guard: guard_stats.as_ref().map(|g| GuardSummary {
+                frames_too_deep: g.frames_too_deep,
+                frames_blended: g.frames_blended,
+                max_depth_before_mm: g.max_depth_before_mm,
+                max_depth_after_mm: g.max_depth_after_mm,
+            }),
         });
         for r in &mut frames {
             if let Some(f) = r

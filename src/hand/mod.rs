@@ -2,6 +2,7 @@
 //! smoothing) the method itself; the barrier push-out of the hand outside contact.
 
 pub mod baseline;
+pub mod guard;
 pub mod ik;
 pub mod pushout;
 pub mod robustness;

@@ -134,6 +134,22 @@ pub struct IkSummary {
     pub max_iterations: usize,
     /// Smallest hand-barrier clearance over the frames [mm] (`null` without barriers).
     pub min_barrier_clearance_mm: Option<f64>,
+    /// What the smoothing guard changed (non-penetrating objective only; docs/METHOD.md
+    /// "Smoothing without pressing in").
+    #[serde(default)]
+    pub smoothing_guard: Option<GuardSummary>,
+}
+
+/// The smoothing guard: frames the smoothing had pressed deeper than the IK allowed.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GuardSummary {
+    /// Smoothed frames deeper than `max(IK depth, tolerance)`.
+    pub frames_too_deep: usize,
+    /// Frames blended back toward the IK solution (those and their neighbours).
+    pub frames_blended: usize,
+    /// Deepest hand-object penetration of the smoothed hand, before and after the guard [mm].
+    pub max_depth_before_mm: f64,
+    pub max_depth_after_mm: f64,
 }
 
 /// Physics verdict summary.

@@ -165,3 +165,91 @@ fn a_pure_translation_returns_the_rigid_transfer() {
     }
     eprintln!("largest wrist difference {:.4} mm", worst * 1e3);
 }
+
+/// Where the retiming makes `t*` jump (cube_messy2: the cube's rest is compressed), smoothing
+/// averages two different grasps and pressed fingers 12 mm into the cube although every IK
+/// frame was within 1 mm. The smoothing guard brings the output back within the original's
+/// depth plus 1 mm and leaves frames that were not too deep as the smoothing made them.
+#[test]
+fn smoothing_does_not_press_the_hand_in_where_time_jumps() {
+    use dexwarp::hand::{baseline, guard, ik, smooth};
+
+    let config = repo("scenes/configs/cube_messy2.json");
+    let run = warp(
+        &config,
+        Objective::NonPenetrating,
+        Solver::Lm,
+        HandMethod::Contact,
+    );
+    let g = run
+        .report
+        .ik
+        .as_ref()
+        .unwrap()
+        .smoothing_guard
+        .clone()
+        .unwrap();
+    let pen = run.report.constraints.hand_object_penetration_mm.unwrap();
+    eprintln!("cube_messy2: guard {g:?}, penetration {pen:?}");
+    assert!(
+        g.frames_too_deep > 0 && g.max_depth_before_mm > 5.0,
+        "{g:?}"
+    );
+    assert!(g.max_depth_after_mm <= 1.0 + 1e-6, "{g:?}");
+    assert!(pen.warped <= pen.original + 1.0, "{pen:?}");
+
+    // The same stages by hand: the guard changes only frames within its spread of a frame
+    // that was too deep, and every changed frame lies between the smoothed and the IK hand.
+    let inputs = Inputs::load(&config, None, &Limits::default()).unwrap();
+    let object = &run.object;
+    let base = baseline::run(&inputs.demo, object).unwrap();
+    let sdf = dexwarp::geometry::object_sdf(&inputs.mesh).unwrap();
+    let params = ik::Params {
+        threshold_mm: 3.5,
+        ..ik::Params::default()
+    };
+    let (raw, _) = ik::run(
+        &inputs.robot,
+        &inputs.demo,
+        object,
+        &base,
+        &[],
+        Some(&sdf),
+        &params,
+    );
+    let range = object.plan.segment.start..=object.plan.t_end_new();
+    let (smoothed, _) = smooth::run(&raw, range.clone(), &smooth::Params::default()).unwrap();
+    let mut guarded = smoothed.clone();
+    let gp = guard::Params::default();
+    let stats = guard::run(
+        &inputs.robot,
+        &sdf,
+        |t| object.path().pose(t),
+        &raw,
+        &mut guarded,
+        range.clone(),
+        &gp,
+    );
+    assert!(stats.frames_too_deep > 0);
+    assert!(stats.frames_blended >= stats.frames_too_deep);
+    assert!(stats.max_depth_after_mm <= 1.0 + 1e-6, "{stats:?}");
+    let mut changed = 0;
+    for t in range {
+        let moved = (guarded.wrists[t].translation.vector - smoothed.wrists[t].translation.vector)
+            .norm()
+            + guarded
+                .q(t)
+                .iter()
+                .zip(smoothed.q(t))
+                .map(|(a, b)| (a - b).abs())
+                .sum::<f64>();
+        if moved > 0.0 {
+            changed += 1;
+            // Between the two: each joint within the interval of its smoothed and IK value.
+            for ((g, s), r) in guarded.q(t).iter().zip(smoothed.q(t)).zip(raw.q(t)) {
+                assert!(*g >= s.min(*r) - 1e-12 && *g <= s.max(*r) + 1e-12);
+            }
+        }
+    }
+    assert!(changed >= stats.frames_too_deep && changed <= stats.frames_blended);
+}
