@@ -212,17 +212,27 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     }
     let mut unsmoothed: Option<HandPath> = None;
     let mut guard_stats: Option<guard::Stats> = None;
+    let mut ik_tolerance_mm: Option<f64> = None;
     let (hand, ik_stats) = match options.hand {
         HandMethod::Baseline => (base, None),
         HandMethod::Contact => {
             let shapes = barrier_shapes(config, scene, &options.limits)?;
+            let object_sdf = crate::geometry::object_sdf(mesh);
+            let tolerance_mm = config.params.penetration_tolerance_mm.unwrap_or_else(|| {
+                crate::model::config::auto_penetration_tolerance_mm(
+                    object_sdf.as_deref().map_or(0.0, |sdf| {
+                        metrics::max_hand_object_penetration_mm(robot, demo, sdf)
+                    }),
+                )
+            });
+            ik_tolerance_mm = Some(tolerance_mm);
             let params = ik::Params {
                 solver: options.solver,
                 threshold_mm: threshold,
                 margin_m: config.params.margin_m,
                 steepness: config.params.steepness,
                 objective: options.objective.unwrap_or(config.params.objective),
-                penetration_tolerance_mm: config.params.penetration_tolerance_mm,
+                penetration_tolerance_mm: tolerance_mm,
                 penetration_weight: options
                     .penetration_weight
                     .unwrap_or(config.params.penetration_weight),
@@ -231,7 +241,6 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             };
             provenance.parameters("ik", &params);
             provenance.parameters("smooth", &smooth::Params::default());
-            let object_sdf = crate::geometry::object_sdf(mesh);
             let (raw, stats) = ik::run(
                 robot,
                 demo,
@@ -352,6 +361,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
                 .map(|(r, n)| (r.as_str().to_string(), *n))
                 .collect(),
             max_penetration_mm: Some(st.max_penetration_mm),
+            penetration_tolerance_mm: ik_tolerance_mm,
             smoothing_guard: guard_stats.as_ref().map(|g| GuardSummary {
                 frames_too_deep: g.frames_too_deep,
                 frames_blended: g.frames_blended,

@@ -67,8 +67,11 @@ pub struct WarpParams {
     pub objective: Objective,
     /// Weight of the IK's non-penetration term (see `hand::ik`; 0 = off). Default 1.
     pub penetration_weight: f64,
-    /// Deepest a finger may sit in the object in a converged IK frame [mm]. Default 1.
-    pub penetration_tolerance_mm: f64,
+    /// Deepest a finger may sit in the object in a converged IK frame [mm]. Absent (the
+    /// default): the demonstration's own deepest hand-object penetration plus 1 mm, within
+    /// [1, 4] mm ([`auto_penetration_tolerance_mm`]), so the IK holds the fingers at about
+    /// the depth the recorded grasp itself has.
+    pub penetration_tolerance_mm: Option<f64>,
     /// Warm start of each IK frame: `follow_object` (default: the previous frame's solution
     /// carried along by the object's motion) or `previous` (that solution unchanged, the
     /// paper's literal reading). With `previous` the hand lags a moving object by up to the
@@ -99,7 +102,7 @@ impl Default for WarpParams {
             pushout_step_m: 0.002,
             objective: Objective::NonPenetrating,
             penetration_weight: 1.0,
-            penetration_tolerance_mm: 1.0,
+            penetration_tolerance_mm: None,
             warm_start: WarmStart::FollowObject,
             retime: RetimeMode::Chord,
             hand_radius_m: crate::hand::pushout::DEFAULT_RADIUS_M,
@@ -282,12 +285,14 @@ impl WarpConfig {
             (0.0, 1e6),
             "weight",
         )?;
-        c.in_range(
-            || "params.penetration_tolerance_mm".into(),
-            p.penetration_tolerance_mm,
-            (0.01, 100.0),
-            "mm",
-        )?;
+        if let Some(tol) = p.penetration_tolerance_mm {
+            c.in_range(
+                || "params.penetration_tolerance_mm".into(),
+                tol,
+                (0.01, 100.0),
+                "mm",
+            )?;
+        }
         c.non_negative(|| "params.hand_radius_m".into(), p.hand_radius_m, "m")?;
         if let Some(e) = p.end_t_new {
             frame_index(&c, || "params.end_t_new".into(), e, "output")?;
@@ -459,5 +464,18 @@ pub fn check_output_name(path: &Path, field: &str, name: &str) -> Result<()> {
                 "{name:?} {p}; expected a plain file name of 1 to {MAX_NAME_CHARS} characters without slashes, not starting with '.' (it names the output files)"
             ),
         )),
+    }
+}
+
+/// The IK's penetration tolerance when a config gives none [mm]: the demonstration's own
+/// deepest hand-object penetration `original_mm` plus 1 mm, at least 1 mm and at most 4 mm
+/// (below the physics check's 5 mm limit). The IK's hinge starts at half of it, so the
+/// fingers rest at about the recorded grasp's own depth: a grasp the recording holds with
+/// 1.5 mm of finger overlap is not recovered with 0.5 mm.
+pub fn auto_penetration_tolerance_mm(original_mm: f64) -> f64 {
+    if original_mm.is_finite() {
+        (original_mm + 1.0).clamp(1.0, 4.0)
+    } else {
+        1.0
     }
 }

@@ -129,6 +129,9 @@ pub struct IkSummary {
     /// Deepest penetration probe of the IK's hand in the object over the frames [mm].
     #[serde(default)]
     pub max_penetration_mm: Option<f64>,
+    /// The penetration tolerance the IK used [mm] (the config's, or the automatic one).
+    #[serde(default)]
+    pub penetration_tolerance_mm: Option<f64>,
     /// Mean and largest iterations per frame.
     pub mean_iterations: f64,
     pub max_iterations: usize,
