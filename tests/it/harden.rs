@@ -803,3 +803,54 @@ fn killed_batches_rerun_to_the_files_of_an_uninterrupted_run() {
         "temporaries left"
     );
 }
+
+/// A full disk while writing (simulated by a file-size limit: writes past it fail with
+/// EFBIG, as on a full disk they fail with ENOSPC): `warp` fails with the folder named, the
+/// previous run's set in `--out` is left whole and unchanged, and no staging folder stays.
+#[test]
+fn a_write_that_fails_leaves_the_previous_set_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = gripper_fixture(dir.path());
+    let out = dir.path().join("out");
+    let args = ["warp", "--config", s(&config), "--out", s(&out)];
+    let o = dexwarp(&[&args[..], &["--hand", "baseline"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = snapshot(&out);
+    assert_eq!(before.len(), 3, "{:?}", before.keys());
+    let entries = || {
+        let mut v: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let listed = entries();
+
+    // The same command under a 4 KiB file-size limit, with SIGXFSZ ignored so the write
+    // fails instead of the process being killed (ignored signals survive exec).
+    let script = format!(
+        "trap '' XFSZ; ulimit -f 8; exec '{}' \"$@\"",
+        env!("CARGO_BIN_EXE_dexwarp")
+    );
+    let o = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(&script)
+        .arg("sh")
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "a failed write must fail the run");
+    let err = stderr(&o);
+    assert!(
+        err.contains("cannot write") && err.contains(s(&out)),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(snapshot(&out), before, "the previous set changed");
+    assert_eq!(
+        entries(),
+        listed,
+        "a staging folder or a partial file was left"
+    );
+}
