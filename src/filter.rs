@@ -17,6 +17,9 @@ use crate::{Error, Result};
 pub struct Criteria {
     /// Require `physics.verdict == "pass"`. Default true.
     pub require_physics_pass: bool,
+    /// Require `physics.robust == true` (a margin measured, every condition held).
+    /// Default false.
+    pub require_robust: bool,
     /// Largest output D_C [mm].
     pub max_dc_mm: Option<f64>,
     /// Smallest IK converged fraction.
@@ -33,6 +36,7 @@ impl Default for Criteria {
     fn default() -> Self {
         Criteria {
             require_physics_pass: true,
+            require_robust: false,
             max_dc_mm: None,
             min_converged_fraction: None,
             max_waypoint_error_mm: None,
@@ -150,8 +154,22 @@ fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
                     }
                     reasons.extend(p.reasons.iter().map(|r| format!("physics: {r}")));
                 }
+                if c.require_robust && p.verdict == "pass" {
+                    match p.measures.get("margin").filter(|m| !m.is_null()) {
+                        None => reasons.push(
+                            "no robustness margin in the report; write it with --margin".into(),
+                        ),
+                        Some(m) if m.get("robust") != Some(&serde_json::Value::Bool(true)) => {
+                            reasons.push(format!(
+                                "not robust: {}",
+                                m.get("sentence").and_then(|s| s.as_str()).unwrap_or("?")
+                            ))
+                        }
+                        Some(_) => {}
+                    }
+                }
             }
-            None if c.require_physics_pass => {
+            None if c.require_physics_pass || c.require_robust => {
                 reasons.push("no physics verdict in the report".into());
             }
             None => {}

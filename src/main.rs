@@ -179,6 +179,10 @@ enum Command {
         /// IK warm start (overrides the config): previous (the paper) or follow-object.
         #[arg(long, value_enum, value_name = "HOW")]
         warm_start: Option<WarmStartArg>,
+        /// Also measure the robustness margin when physics passes: five more replays with
+        /// less friction and more mass (report `physics.margin`, `physics.robust`).
+        #[arg(long, conflicts_with = "no_physics")]
+        margin: bool,
     },
     /// Replay any demonstration, warped or original, in physics; write DIR/report.json and
     /// DIR/frames.csv.
@@ -197,6 +201,9 @@ enum Command {
         /// Barrier to check against (repeat for several); default: the demonstration's own.
         #[arg(long = "barrier", value_name = "NAME")]
         barriers: Vec<String>,
+        /// Also measure the robustness margin when physics passes (see `warp --margin`).
+        #[arg(long)]
+        margin: bool,
     },
     /// Run many (demo, config) items of a manifest in parallel; a failed item is recorded and
     /// the rest go on.
@@ -281,6 +288,10 @@ enum Command {
         /// Keep items whose barrier push-out hit the narrow-gap failure.
         #[arg(long)]
         allow_narrow_gap: bool,
+        /// Keep only robust passes: items that hold under every margin condition (reports
+        /// written with `--margin`).
+        #[arg(long, conflicts_with = "no_physics")]
+        robust: bool,
     },
 }
 
@@ -521,6 +532,7 @@ fn run(cli: Cli) -> Result<()> {
             objective,
             penetration_weight,
             warm_start,
+            margin,
         } => {
             let inputs = Inputs::load(&config, demo.as_deref(), &limits)?;
             // Before any work: no output may replace an input of this run.
@@ -543,7 +555,10 @@ fn run(cli: Cli) -> Result<()> {
                     WarmStartArg::Previous => dexwarp::hand::ik::WarmStart::Previous,
                     WarmStartArg::FollowObject => dexwarp::hand::ik::WarmStart::FollowObject,
                 }),
-                physics: (!no_physics).then(dexwarp::physics::Params::default),
+                physics: (!no_physics).then(|| dexwarp::physics::Params {
+                    margin,
+                    ..dexwarp::physics::Params::default()
+                }),
                 limits,
             };
             let run = pipeline::warp(&inputs, &options)?;
@@ -554,12 +569,16 @@ fn run(cli: Cli) -> Result<()> {
             out,
             scene,
             barriers,
+            margin,
         } => {
             let (report, frames) = pipeline::validate(
                 &demo,
                 scene.as_deref(),
                 (!barriers.is_empty()).then_some(barriers.as_slice()),
-                &dexwarp::physics::Params::default(),
+                &dexwarp::physics::Params {
+                    margin,
+                    ..dexwarp::physics::Params::default()
+                },
                 &limits,
             )?;
             dexwarp::output::check_not_inputs(
@@ -689,9 +708,11 @@ fn run(cli: Cli) -> Result<()> {
             max_timewarp,
             no_physics,
             allow_narrow_gap,
+            robust,
         } => {
             let criteria = filter::Criteria {
                 require_physics_pass: !no_physics,
+                require_robust: robust,
                 max_dc_mm,
                 min_converged_fraction: min_converged,
                 max_waypoint_error_mm,

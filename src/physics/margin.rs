@@ -58,8 +58,31 @@ pub struct Margin {
 }
 
 /// Replays `demo` under every condition of the margin (the nominal one first; the others
-/// only when it passes) and summarizes. Arguments as for [`validate`].
+/// only when it passes) and summarizes. Arguments as for [`validate`]. The same as
+/// [`validate`] with [`Params::margin`] set, which reuses its nominal replay.
 pub fn margin(
+    robot: &Robot,
+    demo: &Demo,
+    scene: &Scene,
+    barriers: &[String],
+    object_mesh: &Mesh,
+    params: &Params,
+    limits: &Limits,
+) -> Result<Margin> {
+    let p = Params {
+        margin: true,
+        ..params.clone()
+    };
+    let r = validate(robot, demo, scene, barriers, object_mesh, &p, limits)?;
+    Ok(r.margin
+        .expect("validate with margin = true sets the margin"))
+}
+
+/// The margin, given the nominal replay's outcome: replays the other conditions only when
+/// it passed.
+#[allow(clippy::too_many_arguments)]
+pub fn given_nominal(
+    nominal: Condition,
     robot: &Robot,
     demo: &Demo,
     scene: &Scene,
@@ -71,6 +94,7 @@ pub fn margin(
     let run = |sf: f64, sm: f64| -> Result<Condition> {
         let p = Params {
             hand_friction: params.hand_friction * sf,
+            margin: false,
             ..params.clone()
         };
         let mut d = demo.clone();
@@ -84,7 +108,6 @@ pub fn margin(
             reason: r.reasons.first().cloned(),
         })
     };
-    let nominal = run(1.0, 1.0)?;
     if !nominal.passed {
         return Ok(Margin {
             sentence: "fails the nominal replay; no margin".into(),

@@ -328,11 +328,13 @@ pub fn validate(
             decomposition_cached: cached,
             diverged_frame: trace.diverged_at,
         },
+        margin: None,
         timing_s: Timing {
             decomposition: decomposition_s,
             replay: replay_s,
             penetration: penetration_s,
             stability: stability_s,
+            margin: 0.0,
             total: 0.0,
         },
         per_frame: PerFrame {
@@ -344,6 +346,28 @@ pub fn validate(
         },
     };
     report.reasons = verdict::reasons(&report, params);
+    if params.margin {
+        let nominal = margin::Condition {
+            friction_scale: 1.0,
+            friction: params.hand_friction,
+            mass_scale: 1.0,
+            passed: report.passed(),
+            reason: report.reasons.first().cloned(),
+        };
+        let clock = Instant::now();
+        let m = margin::given_nominal(
+            nominal,
+            robot,
+            demo,
+            scene,
+            barriers,
+            object_mesh,
+            params,
+            limits,
+        )?;
+        report.timing_s.margin = clock.elapsed().as_secs_f64();
+        report.margin = Some(m);
+    }
     report.timing_s.total = start.elapsed().as_secs_f64();
     Ok(report)
 }

@@ -112,6 +112,10 @@ pub struct Params {
     /// Gap [m] to a support within which the released object counts as resting on it;
     /// default 0.003.
     pub support_gap_m: f64,
+
+    /// Also replay the robustness margin's conditions when the nominal replay passes
+    /// ([`super::margin`]: five more replays, in parallel); default `false`.
+    pub margin: bool,
 }
 
 impl Default for Params {
@@ -140,6 +144,7 @@ impl Default for Params {
             rest_window_s: 0.5,
             rest_motion_m: 0.01,
             support_gap_m: 0.003,
+            margin: false,
         }
     }
 }

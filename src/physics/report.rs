@@ -134,6 +134,9 @@ pub struct Timing {
     pub replay: f64,
     pub penetration: f64,
     pub stability: f64,
+    /// The margin's extra replays (0 when not asked for).
+    #[serde(default)]
+    pub margin: f64,
     pub total: f64,
 }
 
@@ -162,6 +165,10 @@ pub struct PhysicsReport {
     pub release: Option<Release>,
     pub replay: ReplayInfo,
     pub timing_s: Timing,
+    /// The robustness margin ([`super::margin`]); `None` when not asked for
+    /// ([`super::Params::margin`]).
+    #[serde(default)]
+    pub margin: Option<super::Margin>,
     #[serde(skip)]
     pub per_frame: PerFrame,
 }
@@ -192,6 +199,11 @@ impl PhysicsReport {
         put("release", json(&self.release));
         put("replay", json(&self.replay));
         put("timing_s", json(&self.timing_s));
+        put("margin", json(&self.margin));
+        put(
+            "robust",
+            serde_json::json!(self.margin.as_ref().map(|m| m.robust)),
+        );
         put(
             "drop_frame",
             serde_json::json!(self.drop.as_ref().map(|d| d.frame)),

@@ -6,6 +6,7 @@ mod harden;
 mod html;
 mod ik;
 mod kinematics;
+mod margin;
 mod model;
 mod nonpen;
 mod one_verdict;
