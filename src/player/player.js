@@ -11,7 +11,8 @@
 
   const $ = (id) => document.getElementById(id);
   const canvas = $('pl-canvas');
-  const ctx = canvas.getContext('2d');
+  // Read back after each still frame (test hooks): a CPU canvas is the fast one for that.
+  const ctx = canvas.getContext('2d', { willReadFrequently: true });
   const strip = $('pl-strip');
   const sctx = strip.getContext('2d');
   const slider = $('pl-slider');
