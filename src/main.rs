@@ -766,12 +766,18 @@ fn run(cli: Cli) -> Result<()> {
             let page = out.unwrap_or_else(|| {
                 let index = dir.join("index.html");
                 let ours = std::fs::read_to_string(&index).map_or(true, |t| {
-                    t.contains(&format!("<meta name=\"generator\" content=\"{}\">", overview::GENERATOR))
+                    t.contains(&format!(
+                        "<meta name=\"generator\" content=\"{}\">",
+                        overview::GENERATOR
+                    ))
                 });
                 if ours {
                     index
                 } else {
-                    eprintln!("note: {} is another command's page; writing report.html beside it", index.display());
+                    eprintln!(
+                        "note: {} is another command's page; writing report.html beside it",
+                        index.display()
+                    );
                     dir.join("report.html")
                 }
             });
@@ -787,19 +793,36 @@ fn run(cli: Cli) -> Result<()> {
                         timewarp: tol_timewarp,
                         time_ratio,
                     };
-                    Some(overview::compare::compare(&prev.display().to_string(), &before, &items, &tol))
+                    Some(overview::compare::compare(
+                        &prev.display().to_string(),
+                        &before,
+                        &items,
+                        &tol,
+                    ))
                 }
                 None => None,
             };
             overview::write_page(&dir, &page, &items, comparison.as_ref(), &limits)?;
-            let fails = items.iter().filter(|i| matches!(i.status(), "fail" | "error")).count();
-            eprintln!("{} items, {fails} fail or error; report {}", items.len(), page.display());
+            let fails = items
+                .iter()
+                .filter(|i| matches!(i.status(), "fail" | "error"))
+                .count();
+            eprintln!(
+                "{} items, {fails} fail or error; report {}",
+                items.len(),
+                page.display()
+            );
             if let Some(c) = comparison {
                 let md = page.with_file_name("compare.md");
                 dexwarp::model::json::write_atomic(&md, c.markdown().as_bytes())?;
                 eprintln!("{}; summary {}", c.headline(), md.display());
                 if c.worse() > 0 {
-                    anyhow::bail!("{} changes are worse than {} beyond the tolerances; see {}", c.worse(), c.previous, md.display());
+                    anyhow::bail!(
+                        "{} changes are worse than {} beyond the tolerances; see {}",
+                        c.worse(),
+                        c.previous,
+                        md.display()
+                    );
                 }
             }
             Ok(())

@@ -89,11 +89,7 @@ pub fn compare(previous: &str, before: &[Item], now: &[Item], tol: &Tolerances) 
     let mut changes = Vec::new();
     let mut slower = Vec::new();
     let mut matched = 0;
-    let find = |items: &'_ [Item], id: &str| {
-        items
-            .binary_search_by(|i| i.id.as_str().cmp(id))
-            .ok()
-    };
+    let find = |items: &'_ [Item], id: &str| items.binary_search_by(|i| i.id.as_str().cmp(id)).ok();
     let change = |id: &str, what: &str, text: String, worse: bool| Change {
         id: id.into(),
         what: what.into(),

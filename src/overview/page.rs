@@ -136,7 +136,10 @@ fn players(
         })
         .collect();
     let (ok, missing) = player::write_scripts(&dir, &prefix, built)?;
-    Ok((ok, missing.into_iter().map(|(e, why)| (e.id, why)).collect()))
+    Ok((
+        ok,
+        missing.into_iter().map(|(e, why)| (e.id, why)).collect(),
+    ))
 }
 
 /// Writes the page for `items` of `dir` to `page`, with `comparison` at the top.
@@ -164,7 +167,9 @@ pub fn write_page(
             escape(&c.headline())
         ));
         if !c.changes.is_empty() {
-            body.push_str("<table><tr><th>item</th><th>what</th><th>change</th><th>worse</th></tr>\n");
+            body.push_str(
+                "<table><tr><th>item</th><th>what</th><th>change</th><th>worse</th></tr>\n",
+            );
             for ch in &c.changes {
                 body.push_str(&format!(
                     "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
@@ -206,7 +211,9 @@ pub fn write_page(
     if !kinds.is_empty() {
         let mut kinds: Vec<(String, usize)> = kinds.into_iter().collect();
         kinds.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-        body.push_str("<h3>Reasons</h3>\n<table><tr><th>reason (# = a number)</th><th>items</th></tr>\n");
+        body.push_str(
+            "<h3>Reasons</h3>\n<table><tr><th>reason (# = a number)</th><th>items</th></tr>\n",
+        );
         for (k, n) in kinds.iter().take(30) {
             body.push_str(&format!("<tr><td>{}</td><td>{n}</td></tr>\n", escape(k)));
         }
@@ -221,13 +228,22 @@ pub fn write_page(
     };
     body.push_str("<h2>Distributions</h2>\n<div class=\"hists\">\n");
     for (title, values) in [
-        ("D_C of the output [mm]", col(|r| Some(r.metrics.d_c_mm.warped))),
-        ("D_WO of the output [mm]", col(|r| Some(r.metrics.d_wo_mm.warped))),
+        (
+            "D_C of the output [mm]",
+            col(|r| Some(r.metrics.d_c_mm.warped)),
+        ),
+        (
+            "D_WO of the output [mm]",
+            col(|r| Some(r.metrics.d_wo_mm.warped)),
+        ),
         (
             "hand-object penetration [mm]",
             col(|r| r.constraints.hand_object_penetration_mm.map(|p| p.warped)),
         ),
-        ("path length ratio, object", col(|r| Some(r.metrics.plr_object))),
+        (
+            "path length ratio, object",
+            col(|r| Some(r.metrics.plr_object)),
+        ),
         (
             "timewarp discrepancy",
             col(|r| Some(r.metrics.timewarp_discrepancy)),
@@ -238,7 +254,6 @@ pub fn write_page(
         body.push('\n');
     }
     body.push_str("</div>\n");
-
 
     body.push_str("<h2>Items</h2>\n<table><tr><th>item</th><th>hand</th><th>threshold [mm]</th><th>verdict</th><th>first reason</th><th>D_C [mm]</th><th>D_WO [mm]</th><th>PLR object</th><th>timewarp disc.</th><th>penetration [mm]</th><th>time [s]</th></tr>\n");
     for it in items.iter().take(TABLE_ROWS) {
@@ -251,7 +266,11 @@ pub fn write_page(
             )
         } else {
             let why = no_player.get(&it.id).map_or("", String::as_str);
-            format!("<span title=\"no player: {}\">{}</span>", escape(why), escape(&it.id))
+            format!(
+                "<span title=\"no player: {}\">{}</span>",
+                escape(why),
+                escape(&it.id)
+            )
         };
         let r = it.finished();
         body.push_str(&format!(

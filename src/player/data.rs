@@ -132,7 +132,11 @@ pub fn trajectory(
     limits: &Limits,
 ) -> Result<Value> {
     let inputs = report.provenance.as_ref().map(|p| &p.inputs);
-    let input = |role: &str| inputs.and_then(|i| i.get(role)).map(|f| PathBuf::from(&f.path));
+    let input = |role: &str| {
+        inputs
+            .and_then(|i| i.get(role))
+            .map(|f| PathBuf::from(&f.path))
+    };
     let (primary, original) = match output_demo(dir) {
         Some(out) => (
             cache.demo(&out, limits)?,
@@ -150,7 +154,10 @@ pub fn trajectory(
         }
     };
     let same = |a: &Path, b: &Path| {
-        a == b || std::fs::canonicalize(a).ok().is_some_and(|x| std::fs::canonicalize(b).ok() == Some(x))
+        a == b
+            || std::fs::canonicalize(a)
+                .ok()
+                .is_some_and(|x| std::fs::canonicalize(b).ok() == Some(x))
     };
     let original = original.filter(|o| same(&o.robot, &primary.robot));
     for d in std::iter::once(&primary).chain(original.as_ref()) {
@@ -290,7 +297,9 @@ pub fn trajectory(
                 .iter()
                 .map(|c| {
                     let mut s = match &c.kind {
-                        ShapeKind::Box { size } => json!({"type": "box", "size": [size.x, size.y, size.z]}),
+                        ShapeKind::Box { size } => {
+                            json!({"type": "box", "size": [size.x, size.y, size.z]})
+                        }
                         ShapeKind::Sphere { radius } => json!({"type": "sphere", "radius": radius}),
                         ShapeKind::Cylinder { radius, length } => {
                             json!({"type": "cylinder", "radius": radius, "length": length})
@@ -298,7 +307,9 @@ pub fn trajectory(
                         ShapeKind::Capsule { radius, length } => {
                             json!({"type": "capsule", "radius": radius, "length": length})
                         }
-                        ShapeKind::Mesh { mesh, .. } => json!({"type": "mesh", "mesh": mesh_json(mesh)}),
+                        ShapeKind::Mesh { mesh, .. } => {
+                            json!({"type": "mesh", "mesh": mesh_json(mesh)})
+                        }
                     };
                     s["pose"] = encode::pose_json(&c.origin);
                     s

@@ -29,12 +29,22 @@ pub fn base64(bytes: &[u8]) -> String {
 
 /// `int16` values, little-endian, in base64.
 pub fn i16s(values: &[i16]) -> String {
-    base64(&values.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())
+    base64(
+        &values
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    )
 }
 
 /// `uint32` values, little-endian, in base64.
 pub fn u32s(values: &[u32]) -> String {
-    base64(&values.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())
+    base64(
+        &values
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    )
 }
 
 /// A uniform grid for positions: `x = origin + step * q`, `q` an `int16`.

@@ -13,7 +13,7 @@
 //!
 //! Test hooks: the URL fragment `#play=<id>&frame=<n>` opens a trajectory at a frame;
 //! after each drawing the page sets `data-player-frame`, `data-player-ink` (pixels that are
-//! not background) and, on errors, `data-player-errors` on `<body>`; `&selftest=1` moves the
+//! not background), `data-player-shown-ms` (navigation to the first picture) and, on errors, `data-player-errors` on `<body>`; `&selftest=1` moves the
 //! slider and records in `data-player-selftest` whether time and the picture changed;
 //! `&only=1` hides the rest of the page (screenshots).
 
@@ -99,14 +99,17 @@ const dexwarpPlayerEntries = {list};
 /// The player's CSS.
 pub const STYLE: &str = ".player canvas { display: block; width: 100%; max-width: 960px; background: #f4f6f8; border: 1px solid #ccc; }\n.player #pl-strip { background: #fff; border-top: none; }\n.player input[type=range] { width: 100%; max-width: 960px; display: block; margin: 4px 0 0; }\n.pl-bar { display: flex; gap: 0.6em; align-items: center; flex-wrap: wrap; margin-bottom: 0.4em; }\nbody.pl-only > *:not(#player) { display: none; }\nbody.pl-only { margin: 0.5em; }\n.pl-status, .pl-frame { color: #444; font-size: 0.9em; }\n";
 
-/// Writes the data script of every entry that `make` builds into `dir` (created), and
+/// The entries whose data script was written, and the others with the reason.
+pub type Written = (Vec<Entry>, Vec<(Entry, String)>);
+
+/// Writes the data script of every built entry of `items` into `dir` (created), and
 /// removes older `<prefix>*.js` files there that are not rewritten. Returns the entries
 /// written and, for the rest, why not.
 pub fn write_scripts(
     dir: &Path,
     prefix: &str,
     items: Vec<(Entry, Result<serde_json::Value>)>,
-) -> Result<(Vec<Entry>, Vec<(Entry, String)>)> {
+) -> Result<Written> {
     std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
     let (mut ok, mut missing) = (Vec::new(), Vec::new());
     let mut written = std::collections::HashSet::new();

@@ -447,6 +447,8 @@
     cam.dist = Math.max(0.6, 1.4 * c.extent + 0.45);
     statusEl.textContent = d.title + ': physics ' + (d.verdict || 'not run') + (d.reasons.length ? ' (' + d.reasons[0] + ')' : '') + '; ' + d.n + ' frames at ' + d.fps + ' Hz';
     draw();
+    // Time from navigation to this first picture of the trajectory [ms] (load-time checks).
+    document.body.dataset.playerShownMs = String(Math.round(performance.now()));
   }
 
   function select(id, f, selftest) {

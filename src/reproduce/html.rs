@@ -439,7 +439,11 @@ fn player_entries(rep: &Reproduction, limits: &crate::Limits) -> Result<Vec<crat
         .par_iter()
         .map_init(crate::player::data::Cache::default, |cache, r| {
             let id = format!("{}/{}", r.config, r.variant.name);
-            let verdict = r.report.physics.as_ref().map_or("not run", |p| p.verdict.as_str());
+            let verdict = r
+                .report
+                .physics
+                .as_ref()
+                .map_or("not run", |p| p.verdict.as_str());
             let entry = crate::player::Entry {
                 label: format!("{id} ({verdict})"),
                 src: format!("player/reproduce-{}-{}.js", r.config, r.variant.name),

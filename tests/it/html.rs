@@ -90,7 +90,10 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         "the page must not load anything from the network"
     );
     // The player's data: contact IK at 3.5 mm of the config, and its baseline (the showcase).
-    for f in ["reproduce-box_lift-lm_3.5mm.js", "reproduce-box_lift-baseline.js"] {
+    for f in [
+        "reproduce-box_lift-lm_3.5mm.js",
+        "reproduce-box_lift-baseline.js",
+    ] {
         assert!(out.join("player").join(f).is_file(), "player/{f} missing");
     }
     assert!(html.contains("id=\"player\""), "the page has no player");

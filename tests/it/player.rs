@@ -119,7 +119,11 @@ pub fn check_player(page: &Path, id: &str) {
 }
 
 fn manifest(dir: &Path, name: &str, b_item: &str) -> PathBuf {
-    let config = |c: &str| repo(&format!("scenes/configs/{c}.json")).display().to_string();
+    let config = |c: &str| {
+        repo(&format!("scenes/configs/{c}.json"))
+            .display()
+            .to_string()
+    };
     let path = dir.join(name);
     std::fs::write(
         &path,
@@ -169,7 +173,10 @@ fn report_of_a_batch_renders_and_compare_reports_exactly_the_change() {
         "the page must not load anything from the network"
     );
     for id in ["a", "b"] {
-        assert!(html.contains(&format!("href=\"#play={id}\"")), "no player link for {id}");
+        assert!(
+            html.contains(&format!("href=\"#play={id}\"")),
+            "no player link for {id}"
+        );
     }
     assert_eq!(
         std::fs::read_dir(first.join("player")).unwrap().count(),
@@ -200,16 +207,26 @@ fn report_of_a_batch_renders_and_compare_reports_exactly_the_change() {
     assert!(!o.status.success(), "a regression must fail the command");
     assert!(stderr(&o).contains("worse"), "{}", stderr(&o));
     let md = std::fs::read_to_string(third.join("compare.md")).unwrap();
-    let rows: Vec<&str> = md.lines().filter(|l| l.starts_with("| ") && !l.starts_with("| item")).collect();
+    let rows: Vec<&str> = md
+        .lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| item"))
+        .collect();
     assert!(!rows.is_empty(), "{md}");
-    assert!(rows.iter().all(|r| r.starts_with("| b |")), "only item b changed:\n{md}");
     assert!(
-        rows.iter().any(|r| r.contains("| verdict | pass -> fail") && r.ends_with("| **yes** |")),
+        rows.iter().all(|r| r.starts_with("| b |")),
+        "only item b changed:\n{md}"
+    );
+    assert!(
+        rows.iter()
+            .any(|r| r.contains("| verdict | pass -> fail") && r.ends_with("| **yes** |")),
         "{md}"
     );
     let html = std::fs::read_to_string(third.join("index.html")).unwrap();
     let (top, players) = (html.find("id=\"compare\""), html.find("id=\"player\""));
-    assert!(top.is_some() && top < players, "the comparison is at the top of the page");
+    assert!(
+        top.is_some() && top < players,
+        "the comparison is at the top of the page"
+    );
 
     if have_chromium() {
         check_player(&page, "a");
@@ -220,7 +237,11 @@ fn report_of_a_batch_renders_and_compare_reports_exactly_the_change() {
 fn report_refuses_a_missing_folder_and_keeps_other_pages() {
     let o = dexwarp(&["report", "/nonexistent/outputs"]);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("/nonexistent/outputs"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("/nonexistent/outputs"),
+        "{}",
+        stderr(&o)
+    );
     // A folder whose index.html another command wrote keeps it: the report goes beside it.
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("index.html"), "<p>augment page</p>").unwrap();
@@ -268,6 +289,9 @@ fn warp_ends_with_the_verdict_and_its_first_reason() {
     assert!(o.status.success(), "{}", stderr(&o));
     let html = std::fs::read_to_string(tmp.path().join("index.html")).unwrap();
     for id in ["v", "w"] {
-        assert!(html.contains(&format!("href=\"#play={id}\"")), "no player for {id}");
+        assert!(
+            html.contains(&format!("href=\"#play={id}\"")),
+            "no player for {id}"
+        );
     }
 }
