@@ -8,6 +8,10 @@
 //! with `uint32` triangles, all little-endian in base64 ([`super::encode`]). A 900-frame
 //! human-hand trajectory with its original comes to about 0.5 MB.
 //!
+//! Per output frame, `penetration_mm` is the deepest penetration probe of the output hand in
+//! the object's distance field, the measure of the physics check at the trajectory's poses,
+//! so the frames the page marks red are those the physics verdict counts over the limit.
+//!
 //! Correspondences are stored once per frame of the trajectory they come from (the original
 //! when there is one) in their link and object frames, at most [`MAX_CONTACTS_SHOWN`] per
 //! frame (evenly strided); output frame `f` shows those of its source frame `t*`
@@ -226,15 +230,24 @@ pub fn trajectory(
             .map(|f| u32::from(!f.contacts.is_empty()))
             .collect(),
     };
-    let penetration: Vec<Value> = match &rows {
-        Some(rows) => rows
-            .iter()
-            .map(|r| {
-                r.ik_penetration_mm
-                    .filter(|x| x.is_finite())
-                    .map_or(Value::Null, |x| json!((x * 100.0).round() / 100.0))
-            })
-            .collect(),
+    // The output hand's deepest probe in the object per frame, as the physics check measures
+    // it at the trajectory's poses (frames.csv has the IK's, before smoothing).
+    let object = cache.mesh(&primary.object.mesh, Vector3::repeat(1.0), limits)?;
+    let penetration: Vec<Value> = match crate::geometry::object_sdf(&object) {
+        Some(sdf) => {
+            let mut poses = robot.new_link_poses();
+            primary
+                .frames
+                .iter()
+                .map(|f| {
+                    robot.forward_kinematics(&f.wrist, &f.joints, &mut poses);
+                    let d =
+                        crate::robot::probes::deepest(&robot, &poses, &f.object.inverse(), &sdf)
+                            .map_or(0.0, |(d, _)| d * 1000.0);
+                    json!((d * 100.0).round() / 100.0)
+                })
+                .collect()
+        }
         None => Vec::new(),
     };
     let limit_mm = report
@@ -319,7 +332,6 @@ pub fn trajectory(
         })
         .collect();
 
-    let object = cache.mesh(&primary.object.mesh, Vector3::repeat(1.0), limits)?;
     let (contact_counts, contacts, contact_grid) = contacts_json(&contact_source.frames, |name| {
         robot
             .link_id(name)

@@ -85,7 +85,7 @@ pub fn section(entries: &[Entry]) -> String {
 <input id="pl-slider" type="range" min="0" max="0" value="0" step="1" aria-label="output frame">
 <canvas id="pl-strip" width="960" height="30" title="τ: output frames with a source frame (dark), penetration above the limit (red)"></canvas>
 <p id="pl-frame" class="pl-frame"></p>
-<p class="note">Output in colour, original (at the source frame t* of each output frame) in grey; correspondences green (hand point to object point); object path blue (output, after push-out) and grey (original); waypoints as orange rings; hand in red on frames whose IK penetration is above the physics limit. Drag to orbit, wheel to zoom, shift-drag to pan, space to play.</p>
+<p class="note">Output in colour, original (at the source frame t* of each output frame) in grey; correspondences green (hand point to object point); object path blue (output, after push-out) and grey (original); waypoints as orange rings; hand in red on frames whose hand-object penetration is above the physics limit. Drag to orbit, wheel to zoom, shift-drag to pan, space to play.</p>
 </section>
 <script>
 const dexwarpPlayerEntries = {list};

@@ -423,7 +423,7 @@
       'frame ' + frame + ' / ' + (d.n - 1) + ' (t = ' + (frame / d.fps).toFixed(2) + ' s)' +
       (c.O ? '; source frame t* = ' + c.source[frame] : '') +
       (c.inContact[frame] ? '; in contact' : '') +
-      (pen !== undefined && pen !== null ? '; IK penetration ' + pen.toFixed(2) + ' mm (limit ' + d.penetration_limit_mm + ' mm)' : '');
+      (pen !== undefined && pen !== null ? '; hand-object penetration ' + pen.toFixed(2) + ' mm (limit ' + d.penetration_limit_mm + ' mm)' : '');
     slider.value = String(frame);
     document.body.dataset.playerFrame = String(frame);
     document.body.dataset.playerId = pick.value;
