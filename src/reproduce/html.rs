@@ -1,5 +1,7 @@
-//! `index.html`: the tables and SVG plots of a reproduction, one self-contained page that works
-//! offline (no script, no CDN; plots are inline SVG drawn with plotters).
+//! `index.html`: the tables and SVG plots of a reproduction, one page that works offline (no
+//! CDN; plots are inline SVG drawn with plotters), with the 3D player ([`crate::player`]) of
+//! every config's contact-IK output at 3.5 mm and of the showcase config's baseline, their
+//! data in `player/reproduce-*.js` next to the page (loaded when picked).
 //!
 //! Plots: the timewarp (input frame against output time, the paper's Allegro figure (c)); object
 //! and wrist height over time for the baseline against contact IK (the paper's baseline
@@ -419,13 +421,50 @@ fn html_table(t: &Table) -> String {
     s
 }
 
-/// Writes `index.html` into the reproduction's folder.
-pub fn write_index(rep: &Reproduction) -> Result<()> {
+/// The player's trajectories: contact IK (LM, 3.5 mm) of every config, and the baseline of
+/// the showcase config; their data scripts written into `player/`.
+fn player_entries(rep: &Reproduction, limits: &crate::Limits) -> Result<Vec<crate::player::Entry>> {
+    use rayon::prelude::*;
+    let showcase = showcase(rep);
+    let runs: Vec<&super::RunRecord> = rep
+        .runs
+        .iter()
+        .filter(|r| r.report.error.is_none())
+        .filter(|r| {
+            r.variant.name == "lm_3.5mm"
+                || (r.variant.name == "baseline" && Some(&r.config) == showcase.as_ref())
+        })
+        .collect();
+    let built: Vec<_> = runs
+        .par_iter()
+        .map_init(crate::player::data::Cache::default, |cache, r| {
+            let id = format!("{}/{}", r.config, r.variant.name);
+            let verdict = r
+                .report
+                .physics
+                .as_ref()
+                .map_or("not run", |p| p.verdict.as_str());
+            let entry = crate::player::Entry {
+                label: format!("{id} ({verdict})"),
+                src: format!("player/reproduce-{}-{}.js", r.config, r.variant.name),
+                id: id.clone(),
+            };
+            let data = crate::player::data::trajectory(&r.dir, &r.report, &id, cache, limits);
+            (entry, data)
+        })
+        .collect();
+    let (ok, _) = crate::player::write_scripts(&rep.out.join("player"), "reproduce-", built)?;
+    Ok(ok)
+}
+
+/// Writes `index.html` (and the player's data in `player/`) into the reproduction's folder.
+pub fn write_index(rep: &Reproduction, limits: &crate::Limits) -> Result<()> {
     let mut body = String::new();
     body.push_str(&format!(
         "<h1>dexwarp reproduce</h1>\n<p class=\"prov\">{}</p>\n",
         escape(&tables::provenance(rep))
     ));
+    body.push_str(&crate::player::section(&player_entries(rep, limits)?));
     body.push_str("<h2>Plots</h2>\n");
     for (title, svg) in plots(rep) {
         body.push_str(&format!(
@@ -438,7 +477,8 @@ pub fn write_index(rep: &Reproduction) -> Result<()> {
         body.push_str(&html_table(&t));
     }
     let page = format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>dexwarp reproduce</title>\n<style>\nbody {{ font-family: sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }}\ntable {{ border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.9em; }}\nth, td {{ border: 1px solid #ccc; padding: 3px 8px; text-align: right; }}\nth:first-child, td:first-child {{ text-align: left; }}\nfigure {{ margin: 1em 0; }}\nfigcaption {{ font-weight: bold; margin-bottom: 0.3em; }}\n.prov, .note {{ color: #555; font-size: 0.9em; }}\n</style>\n</head>\n<body>\n{body}</body>\n</html>\n"
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>dexwarp reproduce</title>\n<style>\nbody {{ font-family: sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }}\ntable {{ border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.9em; }}\nth, td {{ border: 1px solid #ccc; padding: 3px 8px; text-align: right; }}\nth:first-child, td:first-child {{ text-align: left; }}\nfigure {{ margin: 1em 0; }}\nfigcaption {{ font-weight: bold; margin-bottom: 0.3em; }}\n.prov, .note {{ color: #555; font-size: 0.9em; }}\n{}</style>\n</head>\n<body>\n{body}</body>\n</html>\n",
+        crate::player::STYLE
     );
     let path = rep.out.join("index.html");
     write_atomic(&path, page.as_bytes()).map_err(|e| match e {

@@ -258,7 +258,7 @@ pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
         out: options.out.clone(),
     };
     tables::write_all(&rep)?;
-    html::write_index(&rep)?;
+    html::write_index(&rep, &options.limits)?;
     Ok(rep)
 }
 

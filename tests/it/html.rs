@@ -89,6 +89,23 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         !outside.contains("http://") && !outside.contains("https://"),
         "the page must not load anything from the network"
     );
+    // The player's data: contact IK at 3.5 mm of the config, and its baseline (the showcase).
+    for f in [
+        "reproduce-box_lift-lm_3.5mm.js",
+        "reproduce-box_lift-baseline.js",
+    ] {
+        assert!(out.join("player").join(f).is_file(), "player/{f} missing");
+    }
+    assert!(html.contains("id=\"player\""), "the page has no player");
+    // `dexwarp report` on the same folder keeps reproduce's page and writes report.html.
+    let o = crate::fixtures::dexwarp(&["report", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
+    let report_page = out.join("report.html");
+    assert!(report_page.is_file());
+    if crate::player::have_chromium() {
+        crate::player::check_player(&page, "box_lift/lm_3.5mm");
+        crate::player::check_player(&report_page, "runs/box_lift/baseline");
+    }
     // Render it in a real browser (CI installs Debian's chromium; see .ci/run).
     let profile = tempfile::tempdir().unwrap();
     let Some(dom) = rendered_dom(&page, profile.path()) else {

@@ -12,6 +12,7 @@ mod nonpen;
 mod one_verdict;
 mod physics;
 mod physics_regression;
+mod player;
 mod sdf;
 mod support;
 mod synth;

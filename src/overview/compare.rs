@@ -1,0 +1,266 @@
+//! `dexwarp report DIR --compare PREV_DIR`: what changed between two runs of the same items
+//! (matched by folder): verdict flips, new failures, items gone or added, and metric changes
+//! beyond a tolerance. A change is *worse* when a verdict got worse (pass → fail → error), a
+//! new item fails, an item is gone, or D_C, D_WO, hand-object penetration or the waypoint
+//! error grew by more than its tolerance; PLR and timewarp changes beyond their tolerances
+//! are listed but do not count as worse (either direction can be the intent of a change).
+//! Timing is listed apart (stage totals per item slower by more than `time_ratio` and by
+//! more than a second; the run's totals) and never counts as worse: it depends on the
+//! machine.
+
+use super::{Item, seconds};
+
+/// How much a figure may move before it is reported.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tolerances {
+    /// D_C of the output [mm] (default 0.5).
+    pub d_c_mm: f64,
+    /// D_WO of the output [mm] (default 1).
+    pub d_wo_mm: f64,
+    /// Deepest hand-object penetration of the output [mm] (default 0.5).
+    pub penetration_mm: f64,
+    /// Largest waypoint error [mm] (default 1).
+    pub waypoint_mm: f64,
+    /// Object path length ratio (default 0.05).
+    pub plr: f64,
+    /// Timewarp discrepancy (default 0.02).
+    pub timewarp: f64,
+    /// Stage time ratio, now over before (default 1.5).
+    pub time_ratio: f64,
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Tolerances {
+            d_c_mm: 0.5,
+            d_wo_mm: 1.0,
+            penetration_mm: 0.5,
+            waypoint_mm: 1.0,
+            plr: 0.05,
+            timewarp: 0.02,
+            time_ratio: 1.5,
+        }
+    }
+}
+
+/// One reported difference.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Change {
+    /// Item id (its folder).
+    pub id: String,
+    /// `verdict`, `new item`, `missing`, or the metric's name.
+    pub what: String,
+    /// Before and after, in words.
+    pub text: String,
+    pub worse: bool,
+}
+
+/// The differences between two runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Comparison {
+    /// The previous run's folder, as given.
+    pub previous: String,
+    /// Items present in both runs.
+    pub matched: usize,
+    pub changes: Vec<Change>,
+    /// Items whose stage time grew beyond the ratio: (id, before [s], now [s]).
+    pub slower: Vec<(String, f64, f64)>,
+    /// Total stage time of all items, before and now [s].
+    pub total_seconds: (f64, f64),
+}
+
+fn rank(status: &str) -> u8 {
+    match status {
+        "pass" | "not run" => 0,
+        "fail" => 1,
+        _ => 2,
+    }
+}
+
+fn first(reasons: &[String]) -> String {
+    reasons
+        .first()
+        .map(|r| format!(" ({r})"))
+        .unwrap_or_default()
+}
+
+/// Compares `now` with `before` (both from [`super::collect`]).
+pub fn compare(previous: &str, before: &[Item], now: &[Item], tol: &Tolerances) -> Comparison {
+    let mut changes = Vec::new();
+    let mut slower = Vec::new();
+    let mut matched = 0;
+    let find = |items: &'_ [Item], id: &str| items.binary_search_by(|i| i.id.as_str().cmp(id)).ok();
+    let change = |id: &str, what: &str, text: String, worse: bool| Change {
+        id: id.into(),
+        what: what.into(),
+        text,
+        worse,
+    };
+    for n in now {
+        let Some(b) = find(before, &n.id).map(|k| &before[k]) else {
+            let worse = rank(n.status()) > 0;
+            changes.push(change(
+                &n.id,
+                if worse { "new failure" } else { "new item" },
+                format!("{}{}", n.status(), first(&n.reasons())),
+                worse,
+            ));
+            continue;
+        };
+        matched += 1;
+        let (sb, sn) = (b.status(), n.status());
+        if sb != sn {
+            changes.push(change(
+                &n.id,
+                "verdict",
+                format!("{sb} -> {sn}{}", first(&n.reasons())),
+                rank(sn) > rank(sb),
+            ));
+        }
+        let (Some(rb), Some(rn)) = (b.finished(), n.finished()) else {
+            continue;
+        };
+        let grew = |what: &str, x: Option<f64>, y: Option<f64>, tol: f64, unit: &str| {
+            let (Some(x), Some(y)) = (x, y) else {
+                return None;
+            };
+            let d = y - x;
+            (d.abs() > tol || (x.is_finite() != y.is_finite())).then(|| {
+                change(
+                    &n.id,
+                    what,
+                    format!("{x:.2} -> {y:.2}{unit} ({d:+.2}, tolerance {tol}{unit})"),
+                    d > tol || d.is_nan(),
+                )
+            })
+        };
+        let moved = |what: &str, x: f64, y: f64, tol: f64| {
+            let d = y - x;
+            (d.abs() > tol || d.is_nan()).then(|| {
+                change(
+                    &n.id,
+                    what,
+                    format!("{x:.3} -> {y:.3} ({d:+.3}, tolerance {tol})"),
+                    false,
+                )
+            })
+        };
+        let pen = |r: &crate::model::report::Report| {
+            r.constraints.hand_object_penetration_mm.map(|p| p.warped)
+        };
+        changes.extend(
+            [
+                grew(
+                    "D_C",
+                    Some(rb.metrics.d_c_mm.warped),
+                    Some(rn.metrics.d_c_mm.warped),
+                    tol.d_c_mm,
+                    " mm",
+                ),
+                grew(
+                    "D_WO",
+                    Some(rb.metrics.d_wo_mm.warped),
+                    Some(rn.metrics.d_wo_mm.warped),
+                    tol.d_wo_mm,
+                    " mm",
+                ),
+                grew(
+                    "hand-object penetration",
+                    pen(rb),
+                    pen(rn),
+                    tol.penetration_mm,
+                    " mm",
+                ),
+                grew(
+                    "waypoint error",
+                    Some(rb.constraints.max_waypoint_error_mm),
+                    Some(rn.constraints.max_waypoint_error_mm),
+                    tol.waypoint_mm,
+                    " mm",
+                ),
+                moved(
+                    "PLR object",
+                    rb.metrics.plr_object,
+                    rn.metrics.plr_object,
+                    tol.plr,
+                ),
+                moved(
+                    "timewarp discrepancy",
+                    rb.metrics.timewarp_discrepancy,
+                    rn.metrics.timewarp_discrepancy,
+                    tol.timewarp,
+                ),
+            ]
+            .into_iter()
+            .flatten(),
+        );
+        let (tb, tn) = (seconds(rb), seconds(rn));
+        if tn > tb * tol.time_ratio && tn - tb > 1.0 {
+            slower.push((n.id.clone(), tb, tn));
+        }
+    }
+    for b in before {
+        if find(now, &b.id).is_none() {
+            changes.push(change(
+                &b.id,
+                "missing",
+                format!("was {}, no report now", b.status()),
+                true,
+            ));
+        }
+    }
+    let total = |items: &[Item]| items.iter().filter_map(Item::finished).map(seconds).sum();
+    Comparison {
+        previous: previous.into(),
+        matched,
+        changes,
+        slower,
+        total_seconds: (total(before), total(now)),
+    }
+}
+
+impl Comparison {
+    /// Changes that count as worse.
+    pub fn worse(&self) -> usize {
+        self.changes.iter().filter(|c| c.worse).count()
+    }
+
+    /// One line of counts.
+    pub fn headline(&self) -> String {
+        format!(
+            "{} items matched with {}: {} changes beyond the tolerances, {} worse; stage time {:.1} s -> {:.1} s",
+            self.matched,
+            self.previous,
+            self.changes.len(),
+            self.worse(),
+            self.total_seconds.0,
+            self.total_seconds.1
+        )
+    }
+
+    /// The Markdown summary (`compare.md`).
+    pub fn markdown(&self) -> String {
+        let mut s = format!("# dexwarp report --compare\n\n{}\n\n", self.headline());
+        if self.changes.is_empty() {
+            s.push_str("No change beyond the tolerances.\n");
+        } else {
+            s.push_str("| item | what | change | worse |\n|---|---|---|---|\n");
+            for c in &self.changes {
+                s.push_str(&format!(
+                    "| {} | {} | {} | {} |\n",
+                    c.id.replace('|', "\\|"),
+                    c.what,
+                    c.text.replace('|', "\\|"),
+                    if c.worse { "**yes**" } else { "no" }
+                ));
+            }
+        }
+        if !self.slower.is_empty() {
+            s.push_str("\nSlower (stage time, not counted as worse):\n\n");
+            for (id, b, n) in &self.slower {
+                s.push_str(&format!("- {id}: {b:.1} s -> {n:.1} s\n"));
+            }
+        }
+        s
+    }
+}
