@@ -133,6 +133,9 @@ enum Command {
         /// Correspondence noise, standard deviation per axis [mm].
         #[arg(long, value_name = "MM", value_parser = non_negative, allow_negative_numbers = true)]
         noise_mm: Option<f64>,
+        /// Fingertip links, comma-separated (default: our hands' templates, else the leaf links).
+        #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
+        tips: Option<Vec<String>>,
     },
     /// Load a hand and print its links, DoF, joint limits, mimic joints and collision shapes.
     #[command(
@@ -183,7 +186,7 @@ enum Command {
     /// Replay any demonstration, warped or original, in physics; write DIR/report.json and
     /// DIR/frames.csv.
     #[command(
-        after_help = "The scene and barriers are the ones the demonstration names (warp outputs name theirs).\n\nExamples:\n  dexwarp validate scenes/demos/mug.demo.json --out out/mug_check\n  dexwarp validate out/mug/mug_pass_wall.demo.json --out out/mug_check\n  dexwarp validate my.demo.json --scene scenes/kitchen.json --barrier wall_back --out out/x"
+        after_help = "The scene and barriers are the ones the demonstration names (warp and synth outputs name theirs). Exits 0 whatever the verdict (read it in report.json), or 3 on a failed verdict with --strict.\n\nExamples:\n  dexwarp validate scenes/demos/mug.demo.json --out out/mug_check\n  dexwarp validate out/mug/mug_pass_wall.demo.json --out out/mug_check\n  dexwarp validate my.demo.json --scene scenes/kitchen.json --barrier wall_back --out out/x"
     )]
     Validate {
         /// Demonstration (`dexwarp.demo/1`).
@@ -197,6 +200,9 @@ enum Command {
         /// Barrier to check against (repeat for several); default: the demonstration's own.
         #[arg(long = "barrier", value_name = "NAME")]
         barriers: Vec<String>,
+        /// Exit non-zero (status 3) when the physics verdict is fail.
+        #[arg(long)]
+        strict: bool,
     },
     /// Run many (demo, config) items of a manifest in parallel; a failed item is recorded and
     /// the rest go on.
@@ -483,6 +489,7 @@ fn run(cli: Cli) -> Result<()> {
             mesh,
             seed,
             noise_mm,
+            tips,
         } => {
             let syn = dexwarp::synth::defaults::run(
                 &dexwarp::synth::defaults::SynthRequest {
@@ -493,6 +500,7 @@ fn run(cli: Cli) -> Result<()> {
                     mesh,
                     seed,
                     noise_mm,
+                    tips,
                 },
                 &limits,
             )?;
@@ -554,6 +562,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
             scene,
             barriers,
+            strict,
         } => {
             let (report, frames) = pipeline::validate(
                 &demo,
@@ -589,6 +598,9 @@ fn run(cli: Cli) -> Result<()> {
                 report.metrics.d_c_mm.warped,
                 out.join("report.json").display()
             );
+            if strict && physics.is_some_and(|p| p.verdict != "pass") {
+                std::process::exit(3);
+            }
             Ok(())
         }
         Command::Batch {

@@ -226,6 +226,7 @@ fn synthesis_is_deterministic_through_the_cli_entry() {
         mesh: None,
         seed: Some(3),
         noise_mm: Some(1.5),
+        tips: None,
     };
     let a = defaults::run(&req("a/box.demo.json"), &Limits::default()).unwrap();
     defaults::run(&req("b/box.demo.json"), &Limits::default()).unwrap();
@@ -249,6 +250,7 @@ fn request(object: &str, robot: &str, motion: &str, out: &Path) -> SynthRequest 
         mesh: None,
         seed: None,
         noise_mm: None,
+        tips: None,
     }
 }
 
