@@ -136,6 +136,9 @@ enum Command {
         /// Fingertip links, comma-separated (default: our hands' templates, else the leaf links).
         #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
         tips: Option<Vec<String>>,
+        /// The link whose pose is the wrist (default: the URDF root); links above it are dropped.
+        #[arg(long, value_name = "LINK")]
+        wrist_link: Option<String>,
     },
     /// Load a hand and print its links, DoF, joint limits, mimic joints and collision shapes.
     #[command(
@@ -144,6 +147,9 @@ enum Command {
     Robot {
         /// URDF file.
         urdf: PathBuf,
+        /// The link whose pose is the wrist (default: the URDF root); links above it are dropped.
+        #[arg(long, value_name = "LINK")]
+        wrist_link: Option<String>,
     },
     /// Warp one demonstration with one config; writes DIR/<name>.demo.json, DIR/report.json and
     /// DIR/frames.csv.
@@ -490,6 +496,7 @@ fn run(cli: Cli) -> Result<()> {
             seed,
             noise_mm,
             tips,
+            wrist_link,
         } => {
             let syn = dexwarp::synth::defaults::run(
                 &dexwarp::synth::defaults::SynthRequest {
@@ -501,6 +508,7 @@ fn run(cli: Cli) -> Result<()> {
                     seed,
                     noise_mm,
                     tips,
+                    wrist_link,
                 },
                 &limits,
             )?;
@@ -513,8 +521,8 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Robot { urdf } => {
-            let robot = Robot::from_urdf_file(&urdf, &limits)?;
+        Command::Robot { urdf, wrist_link } => {
+            let robot = Robot::from_urdf_file_at(&urdf, &limits, wrist_link.as_deref())?;
             print!("{}", robot.describe());
             Ok(())
         }

@@ -463,6 +463,36 @@ mod tests {
     }
 
     #[test]
+    fn link_meshes_become_their_hull_or_parts_by_the_volume_rule() {
+        let (v, t) = l_shape();
+        let mesh = Mesh {
+            vertices: v
+                .iter()
+                .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
+                .collect(),
+            triangles: t,
+        };
+        // The L fills 51 % of its hull (< LINK_HULL_RATIO): split into parts.
+        let parts = link_hulls(&mesh).expect("has volume");
+        assert!(parts.len() >= 2, "{} parts", parts.len());
+        // The same mesh opened (two side triangles removed) has no volume to compare:
+        // its hull, one part.
+        let mut open = mesh.clone();
+        open.triangles.truncate(open.triangles.len() - 2);
+        assert_eq!(link_hulls(&open).map(|h| h.len()), Some(1));
+        // A flat mesh has no volume: refused.
+        let flat = Mesh {
+            vertices: vec![
+                nalgebra::Point3::new(0.0, 0.0, 0.0),
+                nalgebra::Point3::new(1.0, 0.0, 0.0),
+                nalgebra::Point3::new(0.0, 1.0, 0.0),
+            ],
+            triangles: vec![[0, 1, 2]],
+        };
+        assert!(link_hulls(&flat).is_none());
+    }
+
+    #[test]
     fn entries_round_trip_to_the_bit_and_bad_ones_are_refused() {
         let hulls: Hulls = vec![
             (

@@ -218,6 +218,8 @@ pub struct SynthRequest {
     /// Fingertip links (`--tips`); by default our hands use their named templates and any
     /// other hand its leaf links ([`super::generic`]).
     pub tips: Option<Vec<String>>,
+    /// The link whose pose is the wrist (`--wrist-link`); links above it are dropped.
+    pub wrist_link: Option<String>,
 }
 
 /// Runs `dexwarp synth`: parses the object and motion names, loads the robot, synthesizes
@@ -238,7 +240,7 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
         .map_err(|e: super::motion::UnknownMotion| {
             Error::invalid(cli, "--motion", e.to_string())
         })?;
-    let robot = Robot::from_urdf_file(&req.robot, limits)?;
+    let robot = Robot::from_urdf_file_at(&req.robot, limits, req.wrist_link.as_deref())?;
     let name = req
         .out
         .file_name()
@@ -260,6 +262,7 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
         spec.contacts.noise_mm = n;
     }
     spec.tips = req.tips.clone();
+    spec.wrist_link = req.wrist_link.clone();
     let dir = req
         .out
         .parent()

@@ -116,6 +116,9 @@ pub struct SynthSpec {
     /// Fingertip links of a hand without a named template (`--tips`); `None` finds them
     /// from the tree ([`super::generic`]).
     pub tips: Option<Vec<String>>,
+    /// The link the wrist is (`--wrist-link`), written into the demonstration; the robot
+    /// given to [`synthesize`] must be loaded rooted there.
+    pub wrist_link: Option<String>,
 }
 
 impl SynthSpec {
@@ -149,6 +152,7 @@ impl SynthSpec {
             retreat_m: 0.18,
             max_penetration_mm: 2.0,
             tips: None,
+            wrist_link: None,
         }
     }
 }
@@ -304,6 +308,7 @@ pub fn synthesize(
         timewarp: None,
         scene: None,
         barriers: Vec::new(),
+        wrist_link: spec.wrist_link.clone(),
         source: PathBuf::from(format!("{}.demo.json", spec.name)),
     };
     round_demo(&mut demo);

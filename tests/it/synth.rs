@@ -227,6 +227,7 @@ fn synthesis_is_deterministic_through_the_cli_entry() {
         seed: Some(3),
         noise_mm: Some(1.5),
         tips: None,
+        wrist_link: None,
     };
     let a = defaults::run(&req("a/box.demo.json"), &Limits::default()).unwrap();
     defaults::run(&req("b/box.demo.json"), &Limits::default()).unwrap();
@@ -251,6 +252,7 @@ fn request(object: &str, robot: &str, motion: &str, out: &Path) -> SynthRequest 
         seed: None,
         noise_mm: None,
         tips: None,
+        wrist_link: None,
     }
 }
 
