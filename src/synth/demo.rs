@@ -204,33 +204,17 @@ pub fn synthesize(
     let mesh = object.mesh();
     let geo = ObjectGeometry::new(mesh.clone())
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
-    // Our hands have named templates; any other hand (or one given --tips) gets its grasp
-    // from its kinematics.
-    let family = HandFamily::detect(robot).filter(|_| spec.tips.is_none());
-    let template = match family {
-        Some(family) => templates::template(family, object).ok_or_else(|| {
-            let names: Vec<&str> = templates::objects_for(family)
-                .into_iter()
-                .map(ObjectKind::name)
-                .collect();
-            fail(
-                "(grasp)",
-                format!(
-                    "no grasp of object '{object}' for robot {:?} (a {}); objects with a grasp for this hand: {}",
-                    robot.name,
-                    family.name(),
-                    names.join(", ")
-                ),
-            )
-        })?,
+    // Our hands have named templates for the objects they were made with; any other hand,
+    // object or `--tips` gets its grasp from the hand's kinematics.
+    let named = HandFamily::detect(robot)
+        .filter(|_| spec.tips.is_none())
+        .and_then(|family| templates::template(family, object));
+    let template = match named {
+        Some(t) => t,
         None => {
-            let layout = super::generic::layout(robot, spec.tips.as_deref()).map_err(|e| {
-                fail(
-                    "(robot)",
-                    format!("robot {:?}: {e}", robot.name),
-                )
-            })?;
-            super::generic::template(robot, &layout, object, &geo)
+            let layout = super::generic::layout(robot, spec.tips.as_deref())
+                .map_err(|e| fail("(robot)", format!("robot {:?}: {e}", robot.name)))?;
+            super::generic::template(robot, &layout, &geo)
         }
     };
     let shape = object_shape(&mesh, mesh_path)

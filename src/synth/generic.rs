@@ -34,7 +34,6 @@
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
 use super::grasp::{GraspTemplate, PadTarget, hand_rotation};
-use super::objects::ObjectKind;
 use super::proximity::ObjectGeometry;
 use crate::robot::{JointKind, LinkId, Robot, SurfaceSampling, WRIST_DOF};
 
@@ -261,13 +260,8 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
     })
 }
 
-/// A grasp template of `object` for the hand of `layout` (see the module docs).
-pub fn template(
-    robot: &Robot,
-    layout: &HandLayout,
-    object: ObjectKind,
-    geo: &ObjectGeometry,
-) -> GraspTemplate {
+/// A grasp template of the object `geo` for the hand of `layout` (see the module docs).
+pub fn template(robot: &Robot, layout: &HandLayout, geo: &ObjectGeometry) -> GraspTemplate {
     let (mut lo, mut hi) = (
         Vector3::repeat(f64::INFINITY),
         Vector3::repeat(f64::NEG_INFINITY),
@@ -324,7 +318,6 @@ pub fn template(
     // template's vectors, i.e. the images of the hand's x and z axes.
     let x_img = r0 * Vector3::x();
     let z_img = r0 * Vector3::z();
-    let _ = object;
     GraspTemplate {
         palm_normal: x_img.into(),
         fingers: z_img.into(),
