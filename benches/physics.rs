@@ -138,6 +138,7 @@ fn input() -> Input {
         source: PathBuf::from("bench.demo.json"),
         scene: None,
         barriers: Vec::new(),
+        wrist_link: None,
     };
     let item = |name: &str, role, pose, size| SceneItem {
         name: String::from(name),

@@ -133,6 +133,12 @@ enum Command {
         /// Correspondence noise, standard deviation per axis [mm].
         #[arg(long, value_name = "MM", value_parser = non_negative, allow_negative_numbers = true)]
         noise_mm: Option<f64>,
+        /// Fingertip links, comma-separated (default: our hands' templates, else the leaf links).
+        #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
+        tips: Option<Vec<String>>,
+        /// The link whose pose is the wrist (default: the URDF root); links above it are dropped.
+        #[arg(long, value_name = "LINK")]
+        wrist_link: Option<String>,
     },
     /// Load a hand and print its links, DoF, joint limits, mimic joints and collision shapes.
     #[command(
@@ -141,6 +147,9 @@ enum Command {
     Robot {
         /// URDF file.
         urdf: PathBuf,
+        /// The link whose pose is the wrist (default: the URDF root); links above it are dropped.
+        #[arg(long, value_name = "LINK")]
+        wrist_link: Option<String>,
     },
     /// Warp one demonstration with one config; writes DIR/<name>.demo.json, DIR/report.json and
     /// DIR/frames.csv.
@@ -187,7 +196,7 @@ enum Command {
     /// Replay any demonstration, warped or original, in physics; write DIR/report.json and
     /// DIR/frames.csv.
     #[command(
-        after_help = "The scene and barriers are the ones the demonstration names (warp outputs name theirs).\n\nExamples:\n  dexwarp validate scenes/demos/mug.demo.json --out out/mug_check\n  dexwarp validate out/mug/mug_pass_wall.demo.json --out out/mug_check\n  dexwarp validate my.demo.json --scene scenes/kitchen.json --barrier wall_back --out out/x"
+        after_help = "The scene and barriers are the ones the demonstration names (warp and synth outputs name theirs). Exits 0 whatever the verdict (read it in report.json), or 3 on a failed verdict with --strict.\n\nExamples:\n  dexwarp validate scenes/demos/mug.demo.json --out out/mug_check\n  dexwarp validate out/mug/mug_pass_wall.demo.json --out out/mug_check\n  dexwarp validate my.demo.json --scene scenes/kitchen.json --barrier wall_back --out out/x"
     )]
     Validate {
         /// Demonstration (`dexwarp.demo/1`).
@@ -204,6 +213,9 @@ enum Command {
         /// Also measure the robustness margin when physics passes (see `warp --margin`).
         #[arg(long)]
         margin: bool,
+        /// Exit non-zero (status 3) when the physics verdict is fail.
+        #[arg(long)]
+        strict: bool,
     },
     /// Run many (demo, config) items of a manifest in parallel; a failed item is recorded and
     /// the rest go on.
@@ -531,6 +543,8 @@ fn run(cli: Cli) -> Result<()> {
             mesh,
             seed,
             noise_mm,
+            tips,
+            wrist_link,
         } => {
             let syn = dexwarp::synth::defaults::run(
                 &dexwarp::synth::defaults::SynthRequest {
@@ -541,6 +555,8 @@ fn run(cli: Cli) -> Result<()> {
                     mesh,
                     seed,
                     noise_mm,
+                    tips,
+                    wrist_link,
                 },
                 &limits,
             )?;
@@ -553,8 +569,8 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Robot { urdf } => {
-            let robot = Robot::from_urdf_file(&urdf, &limits)?;
+        Command::Robot { urdf, wrist_link } => {
+            let robot = Robot::from_urdf_file_at(&urdf, &limits, wrist_link.as_deref())?;
             print!("{}", robot.describe());
             Ok(())
         }
@@ -607,6 +623,7 @@ fn run(cli: Cli) -> Result<()> {
             scene,
             barriers,
             margin,
+            strict,
         } => {
             let (report, frames) = pipeline::validate(
                 &demo,
@@ -646,6 +663,9 @@ fn run(cli: Cli) -> Result<()> {
                 out.join("report.json").display()
             );
             eprintln!("{}", verdict_line(&report));
+            if strict && physics.is_some_and(|p| p.verdict != "pass") {
+                std::process::exit(3);
+            }
             Ok(())
         }
         Command::Batch {

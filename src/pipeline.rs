@@ -114,7 +114,7 @@ impl Inputs {
             .map(Path::to_path_buf)
             .unwrap_or_else(|| config.demo.clone());
         let mut demo = Demo::load(&demo_path, limits)?;
-        let robot = Robot::from_urdf_file(&demo.robot, limits)?;
+        let robot = demo.load_robot(limits)?;
         demo.check_robot(&robot)?;
         let scene = Scene::load(&config.scene, limits)?;
         config.check_scene(&scene)?;
@@ -487,6 +487,7 @@ pub fn assemble(demo: &Demo, object: &ObjectWarp, hand: &HandPath, name: &str) -
         timewarp: Some(tw.tau.clone()),
         scene: None,
         barriers: Vec::new(),
+        wrist_link: demo.wrist_link.clone(),
         source: demo.source.clone(),
     }
 }
@@ -606,7 +607,7 @@ pub fn validate(
     limits: &Limits,
 ) -> Result<(Report, Vec<FrameRow>)> {
     let mut demo = Demo::load(demo_path, limits)?;
-    let robot = Robot::from_urdf_file(&demo.robot, limits)?;
+    let robot = demo.load_robot(limits)?;
     demo.check_robot(&robot)?;
     let scene_path = match (scene, &demo.scene) {
         (Some(s), _) => s.to_path_buf(),

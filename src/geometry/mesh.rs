@@ -30,7 +30,9 @@ pub struct Mesh {
 }
 
 /// File formats [`Mesh::load`] reads, for messages.
-const SUPPORTED: &str = "supported mesh formats are .obj and .stl";
+const SUPPORTED: &str = "supported mesh formats are .obj and .stl; convert other formats \
+     (.dae, .glb, .gltf, .ply) first, e.g. `assimp export in.dae out.obj` or \
+     `meshlab`/Blender export as OBJ, and point the URDF <mesh filename> at the .obj";
 
 impl Mesh {
     /// The mesh split into its vertex-connected parts (closed parts that overlap without

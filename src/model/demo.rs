@@ -93,6 +93,10 @@ pub struct DemoFile {
     /// Scene items the hand and object must avoid (barriers of the warp, for `validate`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub barriers: Vec<String>,
+    /// The robot link whose pose `wrist` is; the links above it are not part of the hand.
+    /// Absent: the URDF root.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wrist_link: Option<String>,
 }
 
 /// A contact correspondence in memory.
@@ -144,6 +148,8 @@ pub struct Demo {
     pub scene: Option<PathBuf>,
     /// Barrier names of the scene that apply to this demonstration.
     pub barriers: Vec<String>,
+    /// The link the wrist pose is of (`None`: the URDF root); see [`Demo::load_robot`].
+    pub wrist_link: Option<String>,
     /// The file this demonstration was read from, for messages.
     pub source: PathBuf,
 }
@@ -286,8 +292,14 @@ impl Demo {
             timewarp: file.timewarp,
             scene,
             barriers: file.barriers,
+            wrist_link: file.wrist_link,
             source: path.to_path_buf(),
         })
+    }
+
+    /// Loads the demonstration's robot, rooted at its `wrist_link` when it names one.
+    pub fn load_robot(&self, limits: &Limits) -> Result<crate::robot::Robot> {
+        crate::robot::Robot::from_urdf_file_at(&self.robot, limits, self.wrist_link.as_deref())
     }
 
     /// The in-contact segment [c0, c1], or `None` when no frame has correspondences.
@@ -341,6 +353,7 @@ impl Demo {
             timewarp: self.timewarp.clone(),
             scene: self.scene.as_ref().map(|s| relative_path(base, s)),
             barriers: self.barriers.clone(),
+            wrist_link: self.wrist_link.clone(),
         }
     }
 

@@ -9,6 +9,13 @@
 //! 2. otherwise V-HACD; when it panics, returns no part, or the mesh is not closed, the
 //!    convex hull is used and [`ObjectShape::method`] says so.
 //!
+//! Hand links with mesh collision geometry get convex parts by the same machinery
+//! ([`link_hulls`]), with a looser rule for step 1: a connected part of a link mesh is
+//! replaced by its convex hull when the part's volume is at least [`LINK_HULL_RATIO`] of its
+//! hull's (the hull adds at most a quarter of the part's volume: a fingertip pad, a
+//! phalanx shell) or when the part is not closed (it has no volume to compare); otherwise it
+//! is split by V-HACD with [`DecompositionParams::default`], through the same disk cache.
+//!
 //! Decompositions are cached for the life of the process, keyed by a hash of the vertex
 //! coordinates, the triangles and the parameters, so a batch that replays the same object
 //! many times decomposes it once.
@@ -133,6 +140,85 @@ fn build(mesh: &Mesh, params: &DecompositionParams) -> Option<ObjectShape> {
     })
 }
 
+/// Smallest ratio of a link mesh part's volume to its convex hull's for the hull to stand
+/// for the part (see the module docs).
+pub const LINK_HULL_RATIO: f64 = 0.8;
+
+/// Convex parts of a hand link's collision mesh, as exact hull vertices and triangles
+/// (outward-wound): one hull per connected part whose volume is at least
+/// [`LINK_HULL_RATIO`] of its hull's or that is not closed, V-HACD parts (disk-cached) for
+/// the others. `None` when no part has a hull (every part degenerate, e.g. flat).
+pub fn link_hulls(mesh: &Mesh) -> Option<Hulls> {
+    let params = DecompositionParams::default();
+    let mut out = Hulls::new();
+    for part in mesh.connected_parts() {
+        let points: Vec<Vector> = part.vertices.iter().map(to_point).collect();
+        let hull = rapier3d_f64::parry::transformation::try_convex_hull(&points).ok();
+        let Some(hull) = hull.filter(|(v, t)| v.len() >= 4 && !t.is_empty()) else {
+            continue; // a flat or degenerate part has no volume to collide with
+        };
+        let closed = part.is_closed_and_consistently_wound();
+        let hull_volume = SharedShape::convex_mesh(hull.0.clone(), &hull.1)
+            .map_or(0.0, |s| s.mass_properties(1.0).mass());
+        if !closed || part.signed_volume().abs() >= LINK_HULL_RATIO * hull_volume {
+            out.push(hull);
+            continue;
+        }
+        match cached_hulls(&points, &part.triangles, &params, cache_dir().as_deref()) {
+            Some(parts) if !parts.is_empty() => out.extend(parts),
+            _ => out.push(hull),
+        }
+    }
+    let out: Hulls = out.into_iter().map(simplify_hull).collect();
+    (!out.is_empty()).then_some(out)
+}
+
+/// Most vertices of a link hull: a support query on a convex polyhedron visits its vertices,
+/// so a hull of a finely tessellated fingertip (6,000 vertices) would make every contact
+/// test slow.
+pub const LINK_HULL_MAX_VERTICES: usize = 96;
+
+/// A hull with more than [`LINK_HULL_MAX_VERTICES`] vertices is rebuilt from one vertex per
+/// cell of a grid (the vertex farthest from the hull's centroid), the cell starting at
+/// 0.25 mm and doubling until the new hull is small enough: the new hull lies inside the old
+/// one, within `√3` cells of its surface (0.9 mm at a 0.5 mm cell).
+fn simplify_hull(hull: (Vec<Vector>, Vec<[u32; 3]>)) -> (Vec<Vector>, Vec<[u32; 3]>) {
+    if hull.0.len() <= LINK_HULL_MAX_VERTICES {
+        return hull;
+    }
+    let centroid = hull.0.iter().fold(Vector::ZERO, |a, p| a + *p) / hull.0.len() as f64;
+    let mut cell = 2.5e-4;
+    let mut best = hull;
+    for _ in 0..12 {
+        let mut grid: HashMap<[i64; 3], Vector> = HashMap::new();
+        for p in &best.0 {
+            let key = [p.x, p.y, p.z].map(|c| (c / cell).floor() as i64);
+            let e = grid.entry(key).or_insert(*p);
+            if (*p - centroid).length() > (*e - centroid).length() {
+                *e = *p;
+            }
+        }
+        let mut pts: Vec<Vector> = grid.into_values().collect();
+        pts.sort_by(|a, b| {
+            [a.x, a.y, a.z]
+                .partial_cmp(&[b.x, b.y, b.z])
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        match rapier3d_f64::parry::transformation::try_convex_hull(&pts) {
+            Ok(h) if h.0.len() >= 4 && !h.1.is_empty() => {
+                let small = h.0.len() <= LINK_HULL_MAX_VERTICES;
+                best = h;
+                if small {
+                    break;
+                }
+            }
+            _ => break,
+        }
+        cell *= 2.0;
+    }
+    best
+}
+
 /// One connected part: its hull when it is convex (or not closed), else its V-HACD parts.
 fn build_part(
     mesh: &Mesh,
@@ -163,7 +249,7 @@ fn build_part(
 }
 
 /// Exact hulls `(vertices, triangles)` of the V-HACD parts.
-type Hulls = Vec<(Vec<Vector>, Vec<[u32; 3]>)>;
+pub type Hulls = Vec<(Vec<Vector>, Vec<[u32; 3]>)>;
 
 /// The V-HACD hulls of one closed part, from the disk cache in `dir` or computed now (and
 /// stored there).
@@ -374,6 +460,36 @@ mod tests {
             t.push([i, j + n, i + n]);
         }
         (v, t)
+    }
+
+    #[test]
+    fn link_meshes_become_their_hull_or_parts_by_the_volume_rule() {
+        let (v, t) = l_shape();
+        let mesh = Mesh {
+            vertices: v
+                .iter()
+                .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
+                .collect(),
+            triangles: t,
+        };
+        // The L fills 51 % of its hull (< LINK_HULL_RATIO): split into parts.
+        let parts = link_hulls(&mesh).expect("has volume");
+        assert!(parts.len() >= 2, "{} parts", parts.len());
+        // The same mesh opened (two side triangles removed) has no volume to compare:
+        // its hull, one part.
+        let mut open = mesh.clone();
+        open.triangles.truncate(open.triangles.len() - 2);
+        assert_eq!(link_hulls(&open).map(|h| h.len()), Some(1));
+        // A flat mesh has no volume: refused.
+        let flat = Mesh {
+            vertices: vec![
+                nalgebra::Point3::new(0.0, 0.0, 0.0),
+                nalgebra::Point3::new(1.0, 0.0, 0.0),
+                nalgebra::Point3::new(0.0, 1.0, 0.0),
+            ],
+            triangles: vec![[0, 1, 2]],
+        };
+        assert!(link_hulls(&flat).is_none());
     }
 
     #[test]

@@ -27,6 +27,17 @@ impl Robot {
     ///
     /// The file size is checked against `limits.max_file_bytes` before it is read.
     pub fn from_urdf_file(path: &Path, limits: &Limits) -> Result<Robot> {
+        Robot::from_urdf_file_at(path, limits, None)
+    }
+
+    /// As [`Robot::from_urdf_file`], with the floating wrist at `wrist_link` instead of the
+    /// URDF root: the hand is that link's subtree, the links above it (a forearm, a mount)
+    /// are dropped. An unknown link is refused with the list of links.
+    pub fn from_urdf_file_at(
+        path: &Path,
+        limits: &Limits,
+        wrist_link: Option<&str>,
+    ) -> Result<Robot> {
         let bytes = limits.read_file(path, limits.max_file_bytes, "--max-file-mb")?;
         let text = String::from_utf8(bytes).map_err(|e| Error::Parse {
             path: path.to_path_buf(),
@@ -37,7 +48,7 @@ impl Robot {
             ),
         })?;
         let base = path.parent().unwrap_or(Path::new("."));
-        Robot::from_urdf_str(&text, base, path, limits)
+        Robot::from_urdf_str_at(&text, base, path, limits, wrist_link)
     }
 
     /// Loads a URDF document from a string. Relative mesh paths resolve against `base_dir`;
@@ -47,6 +58,17 @@ impl Robot {
         base_dir: &Path,
         source: &Path,
         limits: &Limits,
+    ) -> Result<Robot> {
+        Robot::from_urdf_str_at(text, base_dir, source, limits, None)
+    }
+
+    /// As [`Robot::from_urdf_str`], rooted at `wrist_link` (see [`Robot::from_urdf_file_at`]).
+    pub fn from_urdf_str_at(
+        text: &str,
+        base_dir: &Path,
+        source: &Path,
+        limits: &Limits,
+        wrist_link: Option<&str>,
     ) -> Result<Robot> {
         if text.len() as u64 > limits.max_file_bytes {
             return Err(Error::TooLarge {
@@ -58,11 +80,14 @@ impl Robot {
             });
         }
         prescan_xml(text, source, limits)?;
-        let urdf = urdf_rs::read_from_string(text).map_err(|e| Error::Parse {
+        let mut urdf = urdf_rs::read_from_string(text).map_err(|e| Error::Parse {
             path: source.to_path_buf(),
             field: "URDF".into(),
             message: format!("not a valid URDF document: {e}"),
         })?;
+        if let Some(link) = wrist_link {
+            keep_subtree(&mut urdf, link, source)?;
+        }
         Loader {
             path: source,
             base_dir,
@@ -102,6 +127,40 @@ impl Robot {
             }
         }
     }
+}
+
+/// Keeps the links of `urdf` in the subtree of `link` (it included) and the joints between
+/// them, so `link` becomes the root.
+fn keep_subtree(urdf: &mut urdf_rs::Robot, link: &str, source: &Path) -> Result<()> {
+    if !urdf.links.iter().any(|l| l.name == link) {
+        let names: Vec<&str> = urdf.links.iter().map(|l| l.name.as_str()).collect();
+        return Err(Error::invalid(
+            source,
+            "wrist_link",
+            format!(
+                "{link:?} is not a link of the robot; its links are: {}",
+                names.join(", ")
+            ),
+        ));
+    }
+    let mut keep = std::collections::HashSet::from([link.to_string()]);
+    // Joints are in any order: grow the set until it stops changing (at most one pass per
+    // tree level, each linear).
+    loop {
+        let before = keep.len();
+        for j in &urdf.joints {
+            if keep.contains(&j.parent.link) {
+                keep.insert(j.child.link.clone());
+            }
+        }
+        if keep.len() == before {
+            break;
+        }
+    }
+    urdf.links.retain(|l| keep.contains(&l.name));
+    urdf.joints
+        .retain(|j| keep.contains(&j.parent.link) && keep.contains(&j.child.link));
+    Ok(())
 }
 
 /// Counts `<link>` and `<joint>` elements and the element nesting depth of a URDF text in one

@@ -101,8 +101,12 @@ impl Loader<'_> {
                 }
             }
         };
-        CollisionShape::new(kind, origin)
-            .ok_or_else(|| self.invalid(field, "parry could not build a shape from this geometry"))
+        CollisionShape::new_link(kind, origin).ok_or_else(|| {
+            self.invalid(
+                field,
+                "parry could not build a shape from this geometry (a mesh needs a part with volume)",
+            )
+        })
     }
 
     /// Finds a mesh file named in URDF. `package://pkg/rel` is searched as `rel` and `pkg/rel`

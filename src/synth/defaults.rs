@@ -215,6 +215,11 @@ pub struct SynthRequest {
     pub seed: Option<u64>,
     /// Correspondence noise σ per axis [mm] (default 0).
     pub noise_mm: Option<f64>,
+    /// Fingertip links (`--tips`); by default our hands use their named templates and any
+    /// other hand its leaf links ([`super::generic`]).
+    pub tips: Option<Vec<String>>,
+    /// The link whose pose is the wrist (`--wrist-link`); links above it are dropped.
+    pub wrist_link: Option<String>,
 }
 
 /// Runs `dexwarp synth`: parses the object and motion names, loads the robot, synthesizes
@@ -235,7 +240,7 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
         .map_err(|e: super::motion::UnknownMotion| {
             Error::invalid(cli, "--motion", e.to_string())
         })?;
-    let robot = Robot::from_urdf_file(&req.robot, limits)?;
+    let robot = Robot::from_urdf_file_at(&req.robot, limits, req.wrist_link.as_deref())?;
     let name = req
         .out
         .file_name()
@@ -256,24 +261,60 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
     if let Some(n) = req.noise_mm {
         spec.contacts.noise_mm = n;
     }
+    spec.tips = req.tips.clone();
+    spec.wrist_link = req.wrist_link.clone();
     let dir = req
         .out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
     let mesh_path = match &req.mesh {
         Some(m) => m.clone(),
-        None => {
-            let p = dir.join(format!("{}.obj", object.name()));
-            object.mesh().write_obj(&p)?;
-            p
-        }
+        None => dir.join(format!("{}.obj", object.name())),
     };
+    let scene_path = dir.join(format!("{}.scene.json", spec.name));
+    // Nothing is written before synthesis succeeds; the demonstration goes last, and a
+    // failed write removes what this run wrote.
     let mut syn = synthesize(&spec, &robot, &req.robot, &mesh_path)?;
     syn.demo.source = req.out.clone();
-    save_compact(&syn.demo, &req.out)?;
+    syn.demo.scene = Some(scene_path.clone());
+    std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
+    let mut written = Vec::new();
+    let result = (|| {
+        if req.mesh.is_none() {
+            object.mesh().write_obj(&mesh_path)?;
+            written.push(mesh_path.clone());
+        }
+        crate::model::json::write_atomic(&scene_path, &scene_bytes(&spec))?;
+        written.push(scene_path.clone());
+        save_compact(&syn.demo, &req.out)
+    })();
+    if result.is_err() {
+        for f in &written {
+            let _ = std::fs::remove_file(f);
+        }
+    }
+    result?;
     Ok(syn)
+}
+
+/// The scene a synthesized demonstration happens in (`<name>.scene.json` beside it, so
+/// `validate` needs no `--scene`): the 2 m x 2 m support the object rests on, 0.2 m thick,
+/// its top at the spec's support height, centred under the start position, named `table`.
+pub fn scene_bytes(spec: &SynthSpec) -> Vec<u8> {
+    let scene = serde_json::json!({
+        "format": crate::model::scene::SCENE_FORMAT,
+        "name": format!("{} (synthesized)", spec.name),
+        "items": [{
+            "name": "table",
+            "role": "support",
+            "pose": {"position": [spec.start_xy[0], spec.start_xy[1], spec.support_z - 0.1]},
+            "shape": {"type": "box", "size": [2.0, 2.0, 0.2]},
+        }],
+    });
+    let mut text = serde_json::to_vec_pretty(&scene).unwrap_or_default();
+    text.push(b'\n');
+    text
 }
 
 #[cfg(test)]

@@ -113,6 +113,12 @@ pub struct SynthSpec {
     pub retreat_m: f64,
     /// Largest hand-object penetration accepted at any frame [mm]. Default 2.
     pub max_penetration_mm: f64,
+    /// Fingertip links of a hand without a named template (`--tips`); `None` finds them
+    /// from the tree ([`super::generic`]).
+    pub tips: Option<Vec<String>>,
+    /// The link the wrist is (`--wrist-link`), written into the demonstration; the robot
+    /// given to [`synthesize`] must be loaded rooted there.
+    pub wrist_link: Option<String>,
 }
 
 impl SynthSpec {
@@ -145,6 +151,8 @@ impl SynthSpec {
             grasp: GraspParams::default(),
             retreat_m: 0.18,
             max_penetration_mm: 2.0,
+            tips: None,
+            wrist_link: None,
         }
     }
 }
@@ -193,33 +201,22 @@ pub fn synthesize(
 ) -> Result<Synthesis> {
     let object = spec.object;
     let fail = |field: &str, msg: String| Error::invalid(robot_path, field, msg);
-    let family = HandFamily::detect(robot).ok_or_else(|| {
-        fail(
-            "(robot)",
-            format!(
-                "robot {:?} is not a hand synthesis knows: expected the <finger>_tip links of a five- or four-finger hand (thumb_tip, index_tip, middle_tip, ring_tip) or the jaws left_finger and right_finger of a gripper",
-                robot.name
-            ),
-        )
-    })?;
-    let template = templates::template(family, object).ok_or_else(|| {
-        let names: Vec<&str> = templates::objects_for(family)
-            .into_iter()
-            .map(ObjectKind::name)
-            .collect();
-        fail(
-            "(grasp)",
-            format!(
-                "no grasp of object '{object}' for robot {:?} (a {}); objects with a grasp for this hand: {}",
-                robot.name,
-                family.name(),
-                names.join(", ")
-            ),
-        )
-    })?;
     let mesh = object.mesh();
     let geo = ObjectGeometry::new(mesh.clone())
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
+    // Our hands have named templates for the objects they were made with; any other hand,
+    // object or `--tips` gets its grasp from the hand's kinematics.
+    let named = HandFamily::detect(robot)
+        .filter(|_| spec.tips.is_none())
+        .and_then(|family| templates::template(family, object));
+    let template = match named {
+        Some(t) => t,
+        None => {
+            let layout = super::generic::layout(robot, spec.tips.as_deref())
+                .map_err(|e| fail("(robot)", format!("robot {:?}: {e}", robot.name)))?;
+            super::generic::template(robot, &layout, &geo)
+        }
+    };
     let shape = object_shape(&mesh, mesh_path)
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
 
@@ -254,7 +251,7 @@ pub fn synthesize(
         fail(
             "(grasp)",
             format!(
-                "cannot grasp object '{object}' with robot {:?}: {e}; try another object or hand (see `dexwarp robot` for the hand's links and limits)",
+                "cannot grasp object '{object}' with robot {:?}: {e}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
                 robot.name
             ),
         )
@@ -295,6 +292,7 @@ pub fn synthesize(
         timewarp: None,
         scene: None,
         barriers: Vec::new(),
+        wrist_link: spec.wrist_link.clone(),
         source: PathBuf::from(format!("{}.demo.json", spec.name)),
     };
     round_demo(&mut demo);

@@ -70,15 +70,18 @@ impl HandFamily {
 #[derive(Clone, Debug, PartialEq)]
 pub struct PadTarget {
     /// Link of the hand point.
-    pub link: &'static str,
+    pub link: String,
     /// Hand point, link frame [m]: the pad surface point for a finger pad.
     pub hand_point: [f64; 3],
-    /// Pad radius [m]: when positive, the pad centre (`hand_point` moved `radius` along the
-    /// link's `−x`: the link origin for a fingertip pad) is targeted at `radius` above the
+    /// Pad radius [m]: when positive, the pad centre (`hand_point` moved `radius` along
+    /// `inward`: the link origin for a fingertip pad of our hands) is targeted at `radius` above the
     /// surface along the normal (see the module docs).
     pub radius: f64,
     /// Rough object point, object frame [m]; projected onto the surface.
     pub object_point: [f64; 3],
+    /// Unit direction from the pad surface point to the pad centre, link frame (`−x` for
+    /// the `<finger>_tip` pads of our hands).
+    pub inward: [f64; 3],
 }
 
 /// A grasp for one hand family and one object.
@@ -104,6 +107,12 @@ pub struct GraspTemplate {
     /// `-turn_rad` at the end, as a relaxed hand would be; 0 keeps the hand on the
     /// approach line (where it must slide in and out along a handle).
     pub turn_rad: f64,
+    /// Joint values of the initial guess, robot order, replacing `preshape` (hands without
+    /// a named template, [`super::generic`]).
+    pub preshape_q: Option<Vec<f64>>,
+    /// Open the hand along the closing directions found from the kinematics at the grasp
+    /// ([`super::generic::open_q`]) instead of `open`.
+    pub kinematic_open: bool,
 }
 
 /// Tunables of the grasp solve.
@@ -179,8 +188,8 @@ pub fn resolve_targets(
     let mut out = Vec::new();
     for t in &template.targets {
         let link = robot
-            .link_id(t.link)
-            .ok_or_else(|| GraspFailure::MissingLink(t.link.to_string()))?;
+            .link_id(&t.link)
+            .ok_or_else(|| GraspFailure::MissingLink(t.link.clone()))?;
         let s = object.surface_point(&Point3::from(t.object_point)).point;
         out.push(ResolvedContact {
             link,
@@ -191,11 +200,7 @@ pub fn resolve_targets(
             let n = object.normal(&s);
             out.push(ResolvedContact {
                 link,
-                hand_point: Point3::new(
-                    t.hand_point[0] - t.radius,
-                    t.hand_point[1],
-                    t.hand_point[2],
-                ),
+                hand_point: Point3::from(t.hand_point) + Vector3::from(t.inward) * t.radius,
                 object_point: s + n * t.radius,
             });
         }
@@ -238,7 +243,14 @@ pub fn solve(
 ) -> Result<Grasp, GraspFailure> {
     let targets = resolve_targets(robot, template, object)?;
     // 1. Initial guess.
-    let q0 = joints_from_names(robot, &template.preshape, None);
+    let q0 = match &template.preshape_q {
+        Some(q) => {
+            let mut q = q.clone();
+            robot.clamp(&mut q);
+            q
+        }
+        None => joints_from_names(robot, &template.preshape, None),
+    };
     let mut poses = robot.new_link_poses();
     robot.forward_kinematics(&Isometry3::identity(), &q0, &mut poses);
     let n = targets.len() as f64;
@@ -322,7 +334,11 @@ pub fn solve(
                 .map_or_else(String::new, |l| robot.link(l).name.clone()),
         });
     }
-    let q_open = joints_from_names(robot, &template.open, Some(&q));
+    let q_open = if template.kinematic_open {
+        super::generic::open_q(robot, &wrist, &q, &(object_pose * Point3::origin()))
+    } else {
+        joints_from_names(robot, &template.open, Some(&q))
+    };
     Ok(Grasp {
         wrist_in_object: object_pose.inverse() * wrist,
         q,

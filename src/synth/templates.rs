@@ -34,8 +34,9 @@ fn human_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
         .find(|(n, _)| *n == tip)
         .map_or(0.0075, |(_, r)| *r);
     PadTarget {
-        link: tip,
+        link: tip.to_string(),
         hand_point: [r, 0.0, 0.0],
+        inward: [-1.0, 0.0, 0.0],
         radius: r,
         object_point,
     }
@@ -43,8 +44,9 @@ fn human_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
 
 fn allegro_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
     PadTarget {
-        link: tip,
+        link: tip.to_string(),
         hand_point: [ALLEGRO_PAD, 0.0, 0.0],
+        inward: [-1.0, 0.0, 0.0],
         radius: ALLEGRO_PAD,
         object_point,
     }
@@ -54,8 +56,9 @@ fn allegro_pad(tip: &'static str, object_point: [f64; 3]) -> PadTarget {
 /// `r` the phalanx radius [m].
 fn human_phalanx(link: &'static str, r: f64, z: f64, object_point: [f64; 3]) -> PadTarget {
     PadTarget {
-        link,
+        link: link.to_string(),
         hand_point: [r, 0.0, z],
+        inward: [-1.0, 0.0, 0.0],
         radius: r,
         object_point,
     }
@@ -64,8 +67,9 @@ fn human_phalanx(link: &'static str, r: f64, z: f64, object_point: [f64; 3]) -> 
 /// A palm point of the human hand: on the palm box's palm-side face (`x` = 14 mm).
 fn human_palm(y: f64, z: f64, object_point: [f64; 3]) -> PadTarget {
     PadTarget {
-        link: "palm",
+        link: "palm".to_string(),
         hand_point: [0.014, y, z],
+        inward: [-1.0, 0.0, 0.0],
         radius: 0.0,
         object_point,
     }
@@ -132,6 +136,8 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             approach: [-0.5, 0.0, 1.0],
             slide: [0.0, 0.0, 1.0],
             turn_rad: 0.25,
+            preshape_q: None,
+            kinematic_open: false,
         },
         ObjectKind::FryingPan => GraspTemplate {
             palm_normal: [0.0, 0.0, -1.0],
@@ -160,6 +166,8 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             approach: [0.0, 0.3, 1.0],
             slide: [1.0, 0.0, 0.0],
             turn_rad: 0.25,
+            preshape_q: None,
+            kinematic_open: false,
         },
         ObjectKind::Mug => GraspTemplate {
             palm_normal: [0.0, 0.0, -1.0],
@@ -191,6 +199,8 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             approach: [0.0, -0.5, 1.0],
             slide: [0.0, 0.0, 1.0],
             turn_rad: 0.25,
+            preshape_q: None,
+            kinematic_open: false,
         },
         // Hook grasp through the handle loop: the palm on the outer face of the handle's
         // outer bar, index and middle through the opening with their middle phalanges on the
@@ -223,6 +233,8 @@ fn human(object: ObjectKind) -> Option<GraspTemplate> {
             approach: [0.0, -1.0, 0.2],
             slide: [0.0, 0.0, 1.0],
             turn_rad: 0.0,
+            preshape_q: None,
+            kinematic_open: false,
         },
         _ => return None,
     };
@@ -287,6 +299,8 @@ fn allegro(object: ObjectKind) -> Option<GraspTemplate> {
         // Fingertips on a round object: no free direction; the drift is kept small.
         slide: [0.0, 0.0, 1.0],
         turn_rad: 0.25,
+        preshape_q: None,
+        kinematic_open: false,
     })
 }
 
@@ -309,8 +323,9 @@ fn gripper(object: ObjectKind) -> Option<GraspTemplate> {
     ] {
         for (link, side) in [("left_finger", 1.0), ("right_finger", -1.0)] {
             targets.push(PadTarget {
-                link,
+                link: link.to_string(),
                 hand_point: [a, 0.0, 0.045 + c],
+                inward: [-1.0, 0.0, 0.0],
                 radius: 0.0,
                 object_point: [-a, side * (half + 0.01), z0 - c],
             });
@@ -325,6 +340,8 @@ fn gripper(object: ObjectKind) -> Option<GraspTemplate> {
         approach: [0.0, 0.0, 1.0],
         slide: [0.0, 0.0, 1.0],
         turn_rad: 0.25,
+        preshape_q: None,
+        kinematic_open: false,
     })
 }
 

@@ -68,6 +68,7 @@ pub fn gripper_fixture(dir: &Path) -> PathBuf {
         timewarp: None,
         scene: None,
         barriers: Vec::new(),
+        wrist_link: None,
         source: dir.join("box.demo.json"),
     };
     demo.save(&dir.join("box.demo.json")).unwrap();

@@ -2,6 +2,7 @@
 mod augment;
 mod cli;
 mod fixtures;
+mod hands;
 mod harden;
 mod html;
 mod ik;

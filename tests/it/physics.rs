@@ -407,6 +407,7 @@ fn gripper_case(variant: Variant, frames_out: Option<usize>) -> Case {
         timewarp: None,
         scene: None,
         barriers: Vec::new(),
+        wrist_link: None,
         source: dir.path().join("gripper.demo.json"),
     };
     // The beam crosses the carry path at the height of the gripper's body (z 0.225-0.273

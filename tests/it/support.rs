@@ -242,6 +242,7 @@ impl GraspDemo {
             timewarp: None,
             scene: None,
             barriers: Vec::new(),
+            wrist_link: None,
             source: dir.path().join("synthetic.demo.json"),
         };
         GraspDemo {

@@ -226,6 +226,8 @@ fn synthesis_is_deterministic_through_the_cli_entry() {
         mesh: None,
         seed: Some(3),
         noise_mm: Some(1.5),
+        tips: None,
+        wrist_link: None,
     };
     let a = defaults::run(&req("a/box.demo.json"), &Limits::default()).unwrap();
     defaults::run(&req("b/box.demo.json"), &Limits::default()).unwrap();
@@ -249,6 +251,8 @@ fn request(object: &str, robot: &str, motion: &str, out: &Path) -> SynthRequest 
         mesh: None,
         seed: None,
         noise_mm: None,
+        tips: None,
+        wrist_link: None,
     }
 }
 
@@ -279,8 +283,10 @@ fn bad_requests_fail_with_clear_messages() {
     let e = defaults::run(&request("teapot", gripper, "pour", &out), &limits)
         .unwrap_err()
         .to_string();
+    // No named grasp: the grasp from the gripper's own kinematics is tried, and its
+    // failure says how to help it.
     assert!(
-        e.contains("no grasp of object 'teapot'") && e.contains("small_box"),
+        e.contains("cannot grasp object 'teapot'") && e.contains("--tips a,b,c"),
         "{e}"
     );
 

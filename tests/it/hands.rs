@@ -1,0 +1,349 @@
+//! Hands other than ours: mesh collision geometry as convex parts, synthesis from the
+//! kinematic tree, `validate` on a `synth` output without `--scene`, `--strict`.
+//!
+//! The mesh path is covered by `tests/data/mesh_hand/` (our Allegro with its fingertip
+//! capsules as an OBJ mesh, written by us). The community hands (Allegro and LEAP as the
+//! dex-urdf collection ships them) are read from `../shared/community-hands/` (or
+//! `$DEXWARP_COMMUNITY_HANDS`); those tests skip with a message when the folder is absent.
+
+use std::path::{Path, PathBuf};
+
+use dexwarp::robot::{Robot, ShapeKind};
+
+use crate::fixtures::{dexwarp, repo, stderr};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn mesh_hand() -> PathBuf {
+    repo("tests/data/mesh_hand/mesh_tip_hand.urdf")
+}
+
+fn json(p: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
+        .unwrap()
+}
+
+/// Correspondences of the first in-contact frame of a demonstration file.
+fn correspondences_per_frame(demo: &Path) -> usize {
+    let d = json(demo);
+    d["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["contacts"].as_array().map_or(0, Vec::len))
+        .find(|&n| n > 0)
+        .unwrap_or(0)
+}
+
+/// Synthesizes `object` with `robot` into `dir/<object>.demo.json` and returns the file.
+fn synth(robot: &Path, object: &str, dir: &Path, extra: &[&str]) -> PathBuf {
+    let demo = dir.join(format!("{object}.demo.json"));
+    let mut args = vec![
+        "synth",
+        "--object",
+        object,
+        "--robot",
+        s(robot),
+        "--motion",
+        "lift_place",
+        "--out",
+        s(&demo),
+    ];
+    args.extend_from_slice(extra);
+    let o = dexwarp(&args);
+    assert!(
+        o.status.success(),
+        "synth {object} with {}: {}",
+        robot.display(),
+        stderr(&o)
+    );
+    demo
+}
+
+/// `validate` without `--scene`; returns the report.
+fn validate(demo: &Path, out: &Path) -> serde_json::Value {
+    let o = dexwarp(&["validate", s(demo), "--out", s(out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    json(&out.join("report.json"))
+}
+
+#[test]
+fn mesh_links_are_convex_parts_and_sampled_at_the_spacing() {
+    let limits = dexwarp::Limits::default();
+    let mesh = Robot::from_urdf_file(&mesh_hand(), &limits).unwrap();
+    let ours = Robot::from_urdf_file(&repo("robots/allegro_hand.urdf"), &limits).unwrap();
+    let link = mesh.link(mesh.link_id("index_link_3").unwrap());
+    let shape = link
+        .collision
+        .iter()
+        .find(|c| matches!(c.kind, ShapeKind::Mesh { .. }))
+        .expect("the fixture's fingertip is a mesh");
+    // The capsule mesh is convex: one part, its (simplified) hull, not a hollow trimesh.
+    assert_eq!(shape.convex_parts, 1, "{}", shape.describe());
+    assert!(shape.shape.as_convex_polyhedron().is_some());
+    assert!(shape.describe().contains("1 convex part"));
+    // Inside is inside (a trimesh would say 0 at the centre of a closed shell).
+    let centre = shape.origin * nalgebra::Point3::origin();
+    assert!(
+        shape.depth_of(&centre) > 0.010,
+        "{}",
+        shape.depth_of(&centre)
+    );
+    // Fixed spacing: about as many surface points as the capsule it replaces (290 mesh
+    // vertices do not become 290 points).
+    let n_mesh = link.surface_points.len();
+    let n_capsule = ours
+        .link(ours.link_id("index_link_3").unwrap())
+        .surface_points
+        .len();
+    assert!(
+        n_mesh * 2 >= n_capsule && n_mesh <= n_capsule * 2,
+        "mesh tip {n_mesh} points, capsule tip {n_capsule}"
+    );
+    // The mesh's own points are at least the spacing apart.
+    let sampling = dexwarp::robot::SurfaceSampling {
+        spacing: 0.006,
+        max_per_shape: 10_000,
+    };
+    let (mut pts, mut normals) = (Vec::new(), Vec::new());
+    shape.sample_surface(&sampling, &mut pts, &mut normals);
+    assert!(pts.len() > 20, "{} points", pts.len());
+    for (i, a) in pts.iter().enumerate() {
+        assert!(shape.depth_of(a).abs() < 1e-6, "{a} is off the surface");
+        for b in &pts[i + 1..] {
+            assert!((a - b).norm() >= 0.006 - 1e-9, "{a} and {b} too close");
+        }
+    }
+}
+
+#[test]
+fn any_hand_synthesizes_from_its_tree_and_validates_without_a_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    // --tips forces the kinematic path on our Allegro's tree with mesh fingertips.
+    let demo = synth(
+        &mesh_hand(),
+        "cube",
+        dir.path(),
+        &["--tips", "index_tip,middle_tip,ring_tip,thumb_tip"],
+    );
+    assert!(
+        dir.path().join("cube.scene.json").is_file(),
+        "synth writes its scene"
+    );
+    let n = correspondences_per_frame(&demo);
+    assert!((10..=100).contains(&n), "{n} correspondences per frame");
+    let report = validate(&demo, &dir.path().join("check"));
+    assert_eq!(
+        report["physics"]["verdict"], "pass",
+        "{}",
+        report["physics"]
+    );
+    // --strict passes on a pass.
+    let o = dexwarp(&[
+        "validate",
+        s(&demo),
+        "--strict",
+        "--out",
+        s(&dir.path().join("strict")),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn validate_fails_the_process_only_with_strict() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = synth(
+        &repo("robots/parallel_gripper.urdf"),
+        "small_box",
+        dir.path(),
+        &[],
+    );
+    // Open the jaws in every frame: the box is never held, the verdict is fail.
+    let mut d = json(&demo);
+    for f in d["frames"].as_array_mut().unwrap() {
+        f["joints"] = serde_json::json!([0.04]);
+    }
+    let open = dir.path().join("open.demo.json");
+    std::fs::write(&open, serde_json::to_vec(&d).unwrap()).unwrap();
+    let out = dir.path().join("v");
+    let o = dexwarp(&["validate", s(&open), "--out", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json(&out.join("report.json"))["physics"]["verdict"], "fail");
+    let o = dexwarp(&["validate", s(&open), "--strict", "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+}
+
+#[test]
+fn a_failed_synth_says_what_it_needs_and_leaves_no_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("new").join("cube.demo.json");
+    let o = dexwarp(&[
+        "synth",
+        "--object",
+        "cube",
+        "--robot",
+        s(&mesh_hand()),
+        "--motion",
+        "lift_place",
+        "--tips",
+        "index_tip,no_such_link",
+        "--out",
+        s(&out),
+    ]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("--tips") && e.contains("no_such_link"), "{e}");
+    assert!(
+        !dir.path().join("new").exists(),
+        "a failed synth created {}",
+        dir.path().join("new").display()
+    );
+    // A hand with one finger: the message says how to name the fingertips.
+    let urdf = dir.path().join("one.urdf");
+    std::fs::write(
+        &urdf,
+        r#"<robot name="one"><link name="palm"><collision><geometry><box size="0.05 0.05 0.02"/></geometry></collision></link>
+<link name="f"><collision><geometry><box size="0.01 0.01 0.04"/></geometry></collision></link>
+<joint name="j" type="revolute"><parent link="palm"/><child link="f"/><axis xyz="1 0 0"/><limit lower="0" upper="1.5" effort="1" velocity="1"/></joint></robot>"#,
+    )
+    .unwrap();
+    let o = dexwarp(&[
+        "synth",
+        "--object",
+        "cube",
+        "--robot",
+        s(&urdf),
+        "--motion",
+        "lift_place",
+        "--out",
+        s(&out),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--tips a,b,c"), "{}", stderr(&o));
+    assert!(!out.exists());
+}
+
+#[test]
+fn other_mesh_formats_are_refused_with_how_to_convert() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tip.dae"), "<COLLADA/>").unwrap();
+    let urdf = dir.path().join("dae.urdf");
+    std::fs::write(
+        &urdf,
+        r#"<robot name="dae"><link name="palm"><collision><geometry><mesh filename="tip.dae"/></geometry></collision></link></robot>"#,
+    )
+    .unwrap();
+    let o = dexwarp(&["robot", s(&urdf)]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains(".obj and .stl") && e.contains("convert") && e.contains("tip.dae"),
+        "{e}"
+    );
+}
+
+/// The community hands folder, or `None` with a message.
+fn community() -> Option<PathBuf> {
+    let dir = std::env::var_os("DEXWARP_COMMUNITY_HANDS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo("../shared/community-hands"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "skipped: no community hands at {} (set DEXWARP_COMMUNITY_HANDS)",
+            dir.display()
+        );
+        None
+    }
+}
+
+/// A copy of a built-in config with its scene made absolute and `demo` as its demonstration.
+fn config_copy(name: &str, demo: &Path, dir: &Path) -> PathBuf {
+    let mut c = json(&repo(&format!("scenes/configs/{name}.json")));
+    c["scene"] = serde_json::Value::String(s(&repo("scenes/kitchen.json")).into());
+    c["demo"] = serde_json::Value::String(s(demo).into());
+    let p = dir.join(format!("{name}.json"));
+    std::fs::write(&p, serde_json::to_vec_pretty(&c).unwrap()).unwrap();
+    p
+}
+
+/// Synth, validate, warp with a built-in config's copy, validate the warp; returns the
+/// verdicts (original, warped) and the warped report.
+fn community_case(urdf: &Path, object: &str, config: &str) -> (String, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = synth(urdf, object, dir.path(), &[]);
+    let n = correspondences_per_frame(&demo);
+    assert!((10..=100).contains(&n), "{n} correspondences per frame");
+    let original = validate(&demo, &dir.path().join("check"));
+    let cfg = config_copy(config, &demo, dir.path());
+    let out = dir.path().join("warp");
+    let o = dexwarp(&["warp", "--config", s(&cfg), "--out", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let warped = json(&out.join("report.json"));
+    let v = |r: &serde_json::Value| r["physics"]["verdict"].as_str().unwrap_or("?").to_string();
+    eprintln!(
+        "{} {object}: original {} {}, warped {} {}",
+        urdf.display(),
+        v(&original),
+        original["physics"]["reasons"],
+        v(&warped),
+        warped["physics"]["reasons"]
+    );
+    (v(&original), v(&warped))
+}
+
+#[test]
+fn community_allegro_synth_warp_and_physics() {
+    let Some(dir) = community() else { return };
+    let urdf = dir.join("allegro_hand/allegro_hand_right.urdf");
+    for (object, config) in [("apple", "allegro_apple_plate"), ("cube", "cube_messy")] {
+        assert_eq!(
+            community_case(&urdf, object, config),
+            ("pass".into(), "pass".into()),
+            "{object}"
+        );
+    }
+}
+
+#[test]
+fn community_leap_synth_warp_and_physics() {
+    let Some(dir) = community() else { return };
+    let urdf = dir.join("leap_hand/leap_hand_right.urdf");
+    let (original, warped) = community_case(&urdf, "apple", "allegro_apple_plate");
+    assert_eq!((original.as_str(), warped.as_str()), ("pass", "pass"));
+    // The cube: the original passes; its cube_messy warp is the known failure of the
+    // report (the object slips 10 mm in the hand during the warped motion).
+    let (original, _warped) = community_case(&urdf, "cube", "cube_messy");
+    assert_eq!(original, "pass");
+}
+
+#[test]
+fn wrist_link_drops_the_links_above_it() {
+    let limits = dexwarp::Limits::default();
+    let r = Robot::from_urdf_file_at(&mesh_hand(), &limits, Some("index_link_1")).unwrap();
+    assert_eq!(r.link(r.root()).name, "index_link_1");
+    let names: Vec<&str> = r.links().iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(r.link_count(), 4, "{names:?}");
+    assert!(r.link_id("palm").is_none() && r.link_id("index_tip").is_some());
+    assert_eq!(r.dof(), 2);
+    let e = Robot::from_urdf_file_at(&mesh_hand(), &limits, Some("forearm"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("wrist_link") && e.contains("\"forearm\"") && e.contains("palm"),
+        "{e}"
+    );
+    // synth writes the wrist link into the demonstration, and validate loads the hand there.
+    let dir = tempfile::tempdir().unwrap();
+    let demo = synth(&mesh_hand(), "cube", dir.path(), &["--wrist-link", "palm"]);
+    assert_eq!(json(&demo)["wrist_link"], "palm");
+    let report = validate(&demo, &dir.path().join("check"));
+    assert_eq!(
+        report["physics"]["verdict"], "pass",
+        "{}",
+        report["physics"]
+    );
+}
