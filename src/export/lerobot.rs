@@ -113,9 +113,7 @@ pub fn features(joint_names: &[String]) -> Value {
 /// The Hugging Face `datasets` schema of the data files (their `huggingface` metadata), so
 /// a reader without LeRobot's `info.json` sees the same types.
 fn hf_metadata(state_len: usize) -> String {
-    let seq = |n: usize| {
-        json!({"feature": {"dtype": "float32", "_type": "Value"}, "length": n, "_type": "Sequence"})
-    };
+    let seq = |n: usize| json!({"feature": {"dtype": "float32", "_type": "Value"}, "length": n, "_type": "Sequence"});
     let val = |t: &str| json!({"dtype": t, "_type": "Value"});
     json!({"info": {"features": {
         STATE: seq(state_len),
@@ -150,8 +148,8 @@ fn write_parquet(path: &Path, batch: &RecordBatch) -> Result<()> {
     let props = WriterProperties::builder()
         .set_compression(Compression::SNAPPY)
         .build();
-    let mut w = ArrowWriter::try_new(file, batch.schema(), Some(props))
-        .map_err(|e| arrow_err(path, e))?;
+    let mut w =
+        ArrowWriter::try_new(file, batch.schema(), Some(props)).map_err(|e| arrow_err(path, e))?;
     w.write(batch).map_err(|e| arrow_err(path, e))?;
     let file = w.into_inner().map_err(|e| arrow_err(path, e))?;
     file.sync_all().map_err(|e| Error::write(path, e))
@@ -177,7 +175,11 @@ pub fn write(root: &Path, c: &Collected, data_file_mb: u64) -> Result<usize> {
     let frames: Vec<usize> = eps.iter().map(|e| e.state.len()).collect();
     // Uncompressed bytes of one row: three float32 vectors, timestamp, four int64.
     let bytes_per_frame = 4 * (2 * state_len + 7) + 4 + 4 * 8;
-    let files = assign_files(&frames, bytes_per_frame, data_file_mb.saturating_mul(1 << 20));
+    let files = assign_files(
+        &frames,
+        bytes_per_frame,
+        data_file_mb.saturating_mul(1 << 20),
+    );
     let mut from = Vec::with_capacity(eps.len());
     let mut total = 0usize;
     for n in &frames {
@@ -191,14 +193,15 @@ pub fn write(root: &Path, c: &Collected, data_file_mb: u64) -> Result<usize> {
         let members: Vec<usize> = (0..eps.len()).filter(|&i| files[i] == file).collect();
         let (ci, fi) = chunk_file(file);
         let path = root.join(data_file(ci, fi));
-        let batch = data_batch(c, &members, &from, &task_of, state_len)
-            .map_err(|e| arrow_err(&path, e))?;
+        let batch =
+            data_batch(c, &members, &from, &task_of, state_len).map_err(|e| arrow_err(&path, e))?;
         write_parquet(&path, &batch)?;
     }
 
     // Episodes table.
     let path = root.join(EPISODES_FILE);
-    let batch = episodes_batch(eps, &files, &from, &tasks, &task_of).map_err(|e| arrow_err(&path, e))?;
+    let batch =
+        episodes_batch(eps, &files, &from, &tasks, &task_of).map_err(|e| arrow_err(&path, e))?;
     write_parquet(&path, &batch)?;
 
     // Tasks table, as pandas writes a DataFrame indexed by `task`.
@@ -293,7 +296,10 @@ fn data_batch(
         }
     }
     let list = |n: usize| {
-        DataType::FixedSizeList(Arc::new(Field::new("item", DataType::Float32, true)), n as i32)
+        DataType::FixedSizeList(
+            Arc::new(Field::new("item", DataType::Float32, true)),
+            n as i32,
+        )
     };
     let schema = Schema::new(vec![
         Field::new(STATE, list(state_len), false),
@@ -396,18 +402,48 @@ fn episodes_batch(
         false,
         string_lists((0..n).map(|i| vec![tasks[task_of[i] as usize].clone()])),
     );
-    push("length", DataType::Int64, false, int(&|i| eps[i].state.len() as i64));
-    push("data/chunk_index", DataType::Int64, false, int(&|i| chunk_file(files[i]).0 as i64));
-    push("data/file_index", DataType::Int64, false, int(&|i| chunk_file(files[i]).1 as i64));
-    push("dataset_from_index", DataType::Int64, false, int(&|i| from[i] as i64));
+    push(
+        "length",
+        DataType::Int64,
+        false,
+        int(&|i| eps[i].state.len() as i64),
+    );
+    push(
+        "data/chunk_index",
+        DataType::Int64,
+        false,
+        int(&|i| chunk_file(files[i]).0 as i64),
+    );
+    push(
+        "data/file_index",
+        DataType::Int64,
+        false,
+        int(&|i| chunk_file(files[i]).1 as i64),
+    );
+    push(
+        "dataset_from_index",
+        DataType::Int64,
+        false,
+        int(&|i| from[i] as i64),
+    );
     push(
         "dataset_to_index",
         DataType::Int64,
         false,
         int(&|i| (from[i] + eps[i].state.len()) as i64),
     );
-    push("meta/episodes/chunk_index", DataType::Int64, false, int(&|_| 0));
-    push("meta/episodes/file_index", DataType::Int64, false, int(&|_| 0));
+    push(
+        "meta/episodes/chunk_index",
+        DataType::Int64,
+        false,
+        int(&|_| 0),
+    );
+    push(
+        "meta/episodes/file_index",
+        DataType::Int64,
+        false,
+        int(&|_| 0),
+    );
     for (name, get) in QUALITY_STRINGS {
         let a = StringArray::from_iter_values(eps.iter().map(|e| get(&e.quality)));
         push(name, DataType::Utf8, false, Arc::new(a));
@@ -453,8 +489,12 @@ fn dataset_stats(c: &Collected, task_of: &[i64]) -> Value {
             index += 1;
         }
     }
-    let of = |rows: &[Vec<f64>]| super::stats::feature_stats(&rows.iter().map(|r| &r[..]).collect::<Vec<_>>());
-    let of1 = |rows: &[[f64; 1]]| super::stats::feature_stats(&rows.iter().map(|r| &r[..]).collect::<Vec<_>>());
+    let of = |rows: &[Vec<f64>]| {
+        super::stats::feature_stats(&rows.iter().map(|r| &r[..]).collect::<Vec<_>>())
+    };
+    let of1 = |rows: &[[f64; 1]]| {
+        super::stats::feature_stats(&rows.iter().map(|r| &r[..]).collect::<Vec<_>>())
+    };
     json!({
         STATE: of(&state),
         ENV_STATE: of(&env),
@@ -551,10 +591,14 @@ fn read_column(a: &dyn Array) -> Option<Column> {
         return Some(Column::Ints(p.iter().map(|v| v.unwrap_or(0)).collect()));
     }
     if let Some(p) = a.as_primitive_opt::<Int32Type>() {
-        return Some(Column::Ints(p.iter().map(|v| v.unwrap_or(0) as i64).collect()));
+        return Some(Column::Ints(
+            p.iter().map(|v| v.unwrap_or(0) as i64).collect(),
+        ));
     }
     if let Some(b) = a.as_boolean_opt() {
-        return Some(Column::Bools(b.iter().map(|v| v.unwrap_or(false)).collect()));
+        return Some(Column::Bools(
+            b.iter().map(|v| v.unwrap_or(false)).collect(),
+        ));
     }
     if let Some(s) = strings(a) {
         return Some(Column::Strings(s));
@@ -574,7 +618,13 @@ fn read_column(a: &dyn Array) -> Option<Column> {
         return Some(Column::StringLists(
             lists
                 .iter()
-                .map(|l| strings(l.as_ref()).unwrap_or_default().into_iter().flatten().collect())
+                .map(|l| {
+                    strings(l.as_ref())
+                        .unwrap_or_default()
+                        .into_iter()
+                        .flatten()
+                        .collect()
+                })
                 .collect(),
         ));
     }
@@ -698,7 +748,9 @@ pub fn read(root: &Path) -> Result<Dataset> {
         return Err(Error::invalid(
             &info_path,
             "codebase_version",
-            format!("is {version:?}; expected \"v3.0\" (convert older datasets with LeRobot first)"),
+            format!(
+                "is {version:?}; expected \"v3.0\" (convert older datasets with LeRobot first)"
+            ),
         ));
     }
     Ok(Dataset {

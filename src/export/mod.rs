@@ -19,13 +19,13 @@
 //! then renamed into place; an existing `OUT` is refused unless `force`.
 
 pub mod lerobot;
+mod light;
 pub mod stats;
 
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use crate::model::Demo;
 use crate::model::report::Report;
 use crate::{Error, Limits, Result};
 
@@ -232,34 +232,6 @@ pub fn quality_of(report: &Report, report_path: &str) -> Quality {
     }
 }
 
-fn pose_row(iso: &nalgebra::Isometry3<f64>) -> [f32; 7] {
-    let t = iso.translation.vector;
-    let q = crate::math::rotation::quat_to_wxyz(&iso.rotation);
-    [
-        t.x as f32, t.y as f32, t.z as f32, q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32,
-    ]
-}
-
-/// The float32 rows of `demo`, every `stride`-th frame.
-pub fn episode_rows(demo: &Demo, stride: usize) -> (Vec<Vec<f32>>, Vec<Vec<f32>>) {
-    let mut state = Vec::new();
-    let mut object = Vec::new();
-    for f in demo.frames.iter().step_by(stride.max(1)) {
-        let mut s = pose_row(&f.wrist).to_vec();
-        s.extend(f.joints.iter().map(|&v| v as f32));
-        state.push(s);
-        object.push(pose_row(&f.object).to_vec());
-    }
-    (state, object)
-}
-
-fn robot_stem(demo: &Demo) -> String {
-    demo.robot
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
 /// The frame stride that turns `demo_fps` into `fps`, or why it cannot.
 fn stride_for(demo_fps: f64, fps: Option<u32>, path: &Path) -> Result<(u32, usize)> {
     let whole = |x: f64| (x - x.round()).abs() < 1e-6 && x.round() >= 1.0;
@@ -333,7 +305,10 @@ pub fn collect(options: &ExportOptions, limits: &Limits) -> Result<Collected> {
         kept.retain(|l| {
             let same = l.robot == *r;
             if !same {
-                skipped.push((l.source.clone(), format!("robot {} is not --robot {r}", l.robot)));
+                skipped.push((
+                    l.source.clone(),
+                    format!("robot {} is not --robot {r}", l.robot),
+                ));
             }
             same
         });
@@ -425,20 +400,37 @@ fn load_one(
     options: &ExportOptions,
     limits: &Limits,
 ) -> std::result::Result<Loaded, LoadError> {
-    let quality = match &f.report {
-        None => None,
-        Some(path) => {
-            let report = read_report(path).map_err(|e| LoadError::Skip(e.to_string()))?;
-            if let Some(e) = &report.error {
-                return Err(LoadError::Skip(format!("the run failed: {e}")));
-            }
-            crate::output::set_is_complete(path, &report).map_err(LoadError::Skip)?;
-            let rel = relative_to_inputs(path, &options.inputs);
-            Some(quality_of(&report, &rel))
+    // A demonstration given directly that cannot be used is the user's error; one of a run
+    // folder is skipped with the reason.
+    let fail = |e: Error| {
+        if f.report.is_none() {
+            LoadError::Fatal(e)
+        } else {
+            LoadError::Skip(e.to_string())
         }
     };
-    if options.only_passing && quality.as_ref().is_none_or(|q| q.verdict != "pass") {
-        return Err(LoadError::Skip("physics verdict is not pass".into()));
+    let mut quality = None;
+    let mut listed_sha = None;
+    if let Some(path) = &f.report {
+        let report = read_report(path).map_err(|e| LoadError::Skip(e.to_string()))?;
+        if let Some(e) = &report.error {
+            return Err(LoadError::Skip(format!("the run failed: {e}")));
+        }
+        if options.only_passing && report.physics.as_ref().is_none_or(|p| p.verdict != "pass") {
+            return Err(LoadError::Skip("physics verdict is not pass".into()));
+        }
+        // The set's other files must match the report (the demonstration is checked below
+        // from the bytes read once).
+        let demo_name = f.demo.file_name().map(|n| n.to_string_lossy().into_owned());
+        let mut rest = report.clone();
+        if let Some(n) = &demo_name {
+            listed_sha = rest.outputs.remove(n);
+        }
+        crate::output::set_is_complete(path, &rest).map_err(LoadError::Skip)?;
+        let rel = relative_to_inputs(path, &options.inputs);
+        quality = Some(quality_of(&report, &rel));
+    } else if options.only_passing {
+        return Err(LoadError::Skip("no report, so no physics pass".into()));
     }
     if !f.demo.is_file() {
         return Err(LoadError::Skip(format!(
@@ -446,25 +438,30 @@ fn load_one(
             f.demo.display()
         )));
     }
-    let demo = Demo::load(&f.demo, limits).map_err(|e| {
-        if f.report.is_none() {
-            LoadError::Fatal(e)
-        } else {
-            LoadError::Skip(e.to_string())
-        }
-    })?;
-    let (fps, stride) = stride_for(demo.fps, options.fps, &demo.source).map_err(LoadError::Fatal)?;
-    let (state, object) = episode_rows(&demo, stride);
+    let bytes =
+        crate::model::json::read_limited(&f.demo, limits, limits.max_file_bytes, "--max-file-mb")
+            .map_err(fail)?;
+    if let Some(sha) = listed_sha
+        && crate::model::provenance::sha256_hex(&bytes) != sha
+    {
+        return Err(LoadError::Skip(format!(
+            "{} is not the file this report was written with (a mixed or interrupted output set)",
+            f.demo.display()
+        )));
+    }
+    let demo = light::parse(&f.demo, &bytes, limits).map_err(fail)?;
+    let (fps, stride) = stride_for(demo.fps, options.fps, &f.demo).map_err(LoadError::Fatal)?;
+    let (state, object) = demo.rows(stride);
     let quality = quality.unwrap_or_else(|| Quality {
         name: demo.name.clone(),
         verdict: "unknown".into(),
         ..Quality::default()
     });
-    let task = format!("{}: {}", demo.object.name, quality.name);
+    let task = format!("{}: {}", demo.object_name, quality.name);
     Ok(Loaded {
         fps,
-        robot: robot_stem(&demo),
-        source: demo.source.clone(),
+        robot: demo.robot_stem(),
+        source: f.demo.clone(),
         joint_names: demo.joint_names,
         episode: Episode {
             state,
@@ -519,8 +516,10 @@ fn check_out(options: &ExportOptions) -> Result<()> {
         ));
     }
     for i in &options.inputs {
-        if let (Ok(a), Ok(b)) = (std::fs::canonicalize(i), std::fs::canonicalize(&options.out))
-            && (a.starts_with(&b) || b.starts_with(&a))
+        if let (Ok(a), Ok(b)) = (
+            std::fs::canonicalize(i),
+            std::fs::canonicalize(&options.out),
+        ) && (a.starts_with(&b) || b.starts_with(&a))
         {
             return Err(Error::invalid(
                 &options.out,

@@ -85,7 +85,10 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
     let limits = Limits::default();
     let reports: Vec<Value> = ["a", "b"]
         .iter()
-        .map(|k| serde_json::from_slice(&std::fs::read(runs.join(k).join("report.json")).unwrap()).unwrap())
+        .map(|k| {
+            serde_json::from_slice(&std::fs::read(runs.join(k).join("report.json")).unwrap())
+                .unwrap()
+        })
         .collect();
     let demos: Vec<Demo> = ["a", "b"]
         .iter()
@@ -100,13 +103,19 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
     let total: usize = demos.iter().map(|d| d.frames.len()).sum();
     assert_eq!(info["total_frames"], total);
     assert_eq!(info["features"]["observation.state"]["shape"][0], 8);
-    assert_eq!(info["features"]["observation.state"]["names"][7], "finger_joint1");
+    assert_eq!(
+        info["features"]["observation.state"]["names"][7],
+        "finger_joint1"
+    );
     assert_eq!(ds.frames.rows, total);
 
     // Every frame, as written.
     let data = out.join("data");
     let state = ds.frames.vectors(&data, "observation.state").unwrap();
-    let env = ds.frames.vectors(&data, "observation.environment_state").unwrap();
+    let env = ds
+        .frames
+        .vectors(&data, "observation.environment_state")
+        .unwrap();
     let action = ds.frames.vectors(&data, "action").unwrap();
     let ep = ds.frames.ints(&data, "episode_index").unwrap();
     let fi = ds.frames.ints(&data, "frame_index").unwrap();
@@ -118,10 +127,17 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
     for (e, d) in demos.iter().enumerate() {
         let n = d.frames.len();
         for i in 0..n {
-            assert_eq!((ep[row], fi[row], idx[row]), (e as i64, i as i64, row as i64));
+            assert_eq!(
+                (ep[row], fi[row], idx[row]),
+                (e as i64, i as i64, row as i64)
+            );
             assert_eq!(state[row], state_of(d, i), "episode {e} frame {i}");
             assert_eq!(env[row], object_of(d, i), "episode {e} frame {i}");
-            assert_eq!(action[row], state_of(d, (i + 1).min(n - 1)), "episode {e} frame {i}");
+            assert_eq!(
+                action[row],
+                state_of(d, (i + 1).min(n - 1)),
+                "episode {e} frame {i}"
+            );
             assert_eq!(ts[row], Some((i as f64 / 30.0) as f32 as f64));
             row += 1;
         }
@@ -132,15 +148,33 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
     assert_eq!(eps.rows, 2);
     let from = eps.ints(&out, "dataset_from_index").unwrap();
     let to = eps.ints(&out, "dataset_to_index").unwrap();
-    assert_eq!((from[1], to[1]), (demos[0].frames.len() as i64, total as i64));
+    assert_eq!(
+        (from[1], to[1]),
+        (demos[0].frames.len() as i64, total as i64)
+    );
     for (e, r) in reports.iter().enumerate() {
         let m = &r["metrics"];
-        assert_eq!(string(eps, "quality/verdict", e), r["physics"]["verdict"].as_str().unwrap());
+        assert_eq!(
+            string(eps, "quality/verdict", e),
+            r["physics"]["verdict"].as_str().unwrap()
+        );
         assert_eq!(string(eps, "quality/name", e), "box_lift");
-        assert_eq!(float(eps, "quality/d_c_mm", e), m["d_c_mm"]["warped"].as_f64());
-        assert_eq!(float(eps, "quality/d_c_original_mm", e), m["d_c_mm"]["original"].as_f64());
-        assert_eq!(float(eps, "quality/d_wo_mm", e), m["d_wo_mm"]["warped"].as_f64());
-        assert_eq!(float(eps, "quality/plr_object", e), m["plr_object"].as_f64());
+        assert_eq!(
+            float(eps, "quality/d_c_mm", e),
+            m["d_c_mm"]["warped"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/d_c_original_mm", e),
+            m["d_c_mm"]["original"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/d_wo_mm", e),
+            m["d_wo_mm"]["warped"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/plr_object", e),
+            m["plr_object"].as_f64()
+        );
         assert_eq!(float(eps, "quality/plr_hand", e), m["plr_hand"].as_f64());
         assert_eq!(
             float(eps, "quality/timewarp_discrepancy", e),
@@ -187,11 +221,26 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
     pyarrow_readback(&out, &demos, &reports);
 
     // --only-passing keeps exactly the passing trajectories; an existing OUT is refused.
-    let passing = reports.iter().filter(|r| r["physics"]["verdict"] == "pass").count();
+    let passing = reports
+        .iter()
+        .filter(|r| r["physics"]["verdict"] == "pass")
+        .count();
     let out2 = dir.path().join("passing");
-    let o = dexwarp(&["export", s(&runs), "--format", "lerobot", "--only-passing", "--out", s(&out2)]);
+    let o = dexwarp(&[
+        "export",
+        s(&runs),
+        "--format",
+        "lerobot",
+        "--only-passing",
+        "--out",
+        s(&out2),
+    ]);
     if passing == 0 {
-        assert!(!o.status.success() && stderr(&o).contains("no trajectory"), "{}", stderr(&o));
+        assert!(
+            !o.status.success() && stderr(&o).contains("no trajectory"),
+            "{}",
+            stderr(&o)
+        );
     } else {
         assert!(o.status.success(), "{}", stderr(&o));
         let info: Value =
@@ -199,7 +248,11 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
         assert_eq!(info["total_episodes"], passing);
     }
     let o = dexwarp(&["export", s(&runs), "--format", "lerobot", "--out", s(&out)]);
-    assert!(!o.status.success() && stderr(&o).contains("--force"), "{}", stderr(&o));
+    assert!(
+        !o.status.success() && stderr(&o).contains("--force"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// The gripper fixture's demonstration as a frames CSV.
@@ -239,8 +292,8 @@ fn write_csv(demo: &Demo, path: &Path, drop: Option<&str>, edit: impl Fn(usize, 
 
 fn import_args<'a>(csv: &'a str, out: &'a str) -> Vec<&'a str> {
     vec![
-        "import", "--csv", csv, "--fps", "30", "--robot", "ROBOT", "--mesh", "MESH", "--mass", "0.1",
-        "--out", out,
+        "import", "--csv", csv, "--fps", "30", "--robot", "ROBOT", "--mesh", "MESH", "--mass",
+        "0.1", "--out", out,
     ]
 }
 
@@ -258,17 +311,57 @@ fn run_import(args: Vec<&str>) -> std::process::Output {
     dexwarp(&args)
 }
 
+/// A bad CSV: file name, column left out, edit of row i's cells, words the error must hold.
+type Case<'a> = (
+    &'a str,
+    Option<&'a str>,
+    fn(usize, &mut Vec<String>),
+    &'a [&'a str],
+);
+
 #[test]
 fn import_csv_errors_name_the_column_and_the_row() {
     let dir = tempfile::tempdir().unwrap();
     gripper_fixture(dir.path());
     let demo = Demo::load(&dir.path().join("box.demo.json"), &Limits::default()).unwrap();
     let out = dir.path().join("out.demo.json");
-    let cases: [(&str, Option<&str>, fn(usize, &mut Vec<String>), &[&str]); 4] = [
-        ("missing.csv", Some("wrist.qy"), |_, _| {}, &["missing.csv", "column wrist.qy", "missing"]),
-        ("nan.csv", None, |i, c| if i == 6 { c[14] = "NaN".into() }, &["nan.csv", "row 7, column finger_joint1", "NaN"]),
-        ("short.csv", None, |i, c| if i == 2 { c.pop(); }, &["short.csv", "row 3", "has 14 fields; expected 15"]),
-        ("text.csv", None, |i, c| if i == 0 { c[1] = "abc".into() }, &["text.csv", "row 1, column object.y", "expected a number"]),
+    let cases: [Case; 4] = [
+        (
+            "missing.csv",
+            Some("wrist.qy"),
+            |_, _| {},
+            &["missing.csv", "column wrist.qy", "missing"],
+        ),
+        (
+            "nan.csv",
+            None,
+            |i, c| {
+                if i == 6 {
+                    c[14] = "NaN".into()
+                }
+            },
+            &["nan.csv", "row 7, column finger_joint1", "NaN"],
+        ),
+        (
+            "short.csv",
+            None,
+            |i, c| {
+                if i == 2 {
+                    c.pop();
+                }
+            },
+            &["short.csv", "row 3", "has 14 fields; expected 15"],
+        ),
+        (
+            "text.csv",
+            None,
+            |i, c| {
+                if i == 0 {
+                    c[1] = "abc".into()
+                }
+            },
+            &["text.csv", "row 1, column object.y", "expected a number"],
+        ),
     ];
     for (name, drop, edit, want) in cases {
         let csv = dir.path().join(name);
@@ -310,7 +403,16 @@ fn import_then_export_then_import_gives_the_same_trajectory() {
     assert!(o.status.success(), "{}", stderr(&o));
     let second = dir.path().join("back.demo.json");
     let mut args = vec!["import", "--lerobot", s(&ds), "--episode", "0"];
-    args.extend(["--robot", "ROBOT", "--mesh", "MESH", "--mass", "0.1", "--out", s(&second)]);
+    args.extend([
+        "--robot",
+        "ROBOT",
+        "--mesh",
+        "MESH",
+        "--mass",
+        "0.1",
+        "--out",
+        s(&second),
+    ]);
     let o = run_import(args);
     assert!(o.status.success(), "{}", stderr(&o));
     let b = Demo::load(&second, &limits).unwrap();
@@ -341,8 +443,13 @@ fn import_then_export_then_import_gives_the_same_trajectory() {
 /// makes one) on the dataset, against values taken from the demonstrations and reports.
 fn pyarrow_readback(out: &Path, demos: &[Demo], reports: &[Value]) {
     let Ok(python) = std::env::var("DEXWARP_PYTHON") else {
-        eprintln!("notice: DEXWARP_PYTHON not set; skipping the pyarrow readback (.ci/run sets it)");
-        assert!(std::env::var_os("CI").is_none(), "CI must set DEXWARP_PYTHON");
+        eprintln!(
+            "notice: DEXWARP_PYTHON not set; skipping the pyarrow readback (.ci/run sets it)"
+        );
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must set DEXWARP_PYTHON"
+        );
         return;
     };
     let (mut state, mut env, mut action, mut ts, mut fi, mut ep, mut idx) =
