@@ -321,7 +321,12 @@ enum Command {
     )]
     Import {
         /// Frames CSV.
-        #[arg(long, value_name = "FILE", conflicts_with = "lerobot", required_unless_present = "lerobot")]
+        #[arg(
+            long,
+            value_name = "FILE",
+            conflicts_with = "lerobot",
+            required_unless_present = "lerobot"
+        )]
         csv: Option<PathBuf>,
         /// Contacts CSV for --csv (frame, link, hand_x..z, object_x..z).
         #[arg(long, value_name = "FILE", requires = "csv")]
@@ -339,7 +344,11 @@ enum Command {
         #[arg(long, value_name = "KEY", default_value = "observation.state")]
         state_key: String,
         /// LeRobot feature holding the object pose (7).
-        #[arg(long, value_name = "KEY", default_value = "observation.environment_state")]
+        #[arg(
+            long,
+            value_name = "KEY",
+            default_value = "observation.environment_state"
+        )]
         object_key: String,
         /// URDF of the hand.
         #[arg(long, value_name = "URDF")]
@@ -819,7 +828,9 @@ fn run(cli: Cli) -> Result<()> {
             let demo = match (csv, lerobot) {
                 (Some(csv), _) => {
                     let Some(fps) = fps else {
-                        anyhow::bail!("--fps is required with --csv: the frame rate of the recording [Hz]");
+                        anyhow::bail!(
+                            "--fps is required with --csv: the frame rate of the recording [Hz]"
+                        );
                     };
                     dexwarp::import::import_csv(&csv, contacts.as_deref(), fps, &target, &limits)?
                 }
@@ -835,7 +846,11 @@ fn run(cli: Cli) -> Result<()> {
                 )?,
                 (None, None) => anyhow::bail!("give --csv FILE or --lerobot DIR"),
             };
-            let with = demo.frames.iter().filter(|f| !f.contacts.is_empty()).count();
+            let with = demo
+                .frames
+                .iter()
+                .filter(|f| !f.contacts.is_empty())
+                .count();
             eprintln!(
                 "wrote {}: {} frames at {} Hz, {with} with correspondences",
                 out.display(),

@@ -84,12 +84,16 @@ fn pose_from(path: &Path, row: usize, names: &[String; 7], v: &[f64]) -> Result<
             format!("{e}; expected a unit quaternion [w, x, y, z]"),
         )
     })?;
-    Ok(Isometry3::from_parts(Translation3::new(v[0], v[1], v[2]), q))
+    Ok(Isometry3::from_parts(
+        Translation3::new(v[0], v[1], v[2]),
+        q,
+    ))
 }
 
 /// Reads the frames CSV (see the module docs) for `robot`.
 pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Vec<Pose>> {
-    let bytes = crate::model::json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
+    let bytes =
+        crate::model::json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_reader(bytes.as_slice());
@@ -110,7 +114,11 @@ pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Ve
     wanted.extend(joints.iter().cloned());
     for (i, h) in header.iter().enumerate() {
         if header[..i].contains(h) {
-            return Err(Error::invalid(path, format!("column {h}"), "appears twice in the header"));
+            return Err(Error::invalid(
+                path,
+                format!("column {h}"),
+                "appears twice in the header",
+            ));
         }
         if !wanted.contains(h) && h != "frame" && h != "timestamp" {
             return Err(Error::invalid(
@@ -152,9 +160,9 @@ pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Ve
         }
         let rec = rec.map_err(|e| {
             let msg = match e.kind() {
-                csv::ErrorKind::UnequalLengths { len, expected_len, .. } => format!(
-                    "has {len} fields; expected {expected_len}, one per header column"
-                ),
+                csv::ErrorKind::UnequalLengths {
+                    len, expected_len, ..
+                } => format!("has {len} fields; expected {expected_len}, one per header column"),
                 _ => e.to_string(),
             };
             Error::invalid(path, format!("row {row}"), msg)
@@ -175,7 +183,11 @@ pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Ve
         out.push((o, w, values[14..].to_vec()));
     }
     if out.is_empty() {
-        return Err(Error::invalid(path, "rows", "none; expected one row per frame"));
+        return Err(Error::invalid(
+            path,
+            "rows",
+            "none; expected one row per frame",
+        ));
     }
     Ok(out)
 }
@@ -187,7 +199,8 @@ pub fn read_contacts_csv(
     frames: usize,
     limits: &Limits,
 ) -> Result<Vec<Vec<Contact>>> {
-    let bytes = crate::model::json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
+    let bytes =
+        crate::model::json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_reader(bytes.as_slice());
@@ -219,14 +232,21 @@ pub fn read_contacts_csv(
             Error::invalid(
                 path,
                 format!("row {row}, column frame"),
-                format!("is {:?}; expected a frame number 0..{}", field(0), frames - 1),
+                format!(
+                    "is {:?}; expected a frame number 0..{}",
+                    field(0),
+                    frames - 1
+                ),
             )
         })?;
         if frame >= frames {
             return Err(Error::invalid(
                 path,
                 format!("row {row}, column frame"),
-                format!("is {frame}; the frames file has {frames} rows (0..{})", frames - 1),
+                format!(
+                    "is {frame}; the frames file has {frames} rows (0..{})",
+                    frames - 1
+                ),
             ));
         }
         let link = field(1).to_string();
@@ -268,7 +288,11 @@ pub fn read_contacts_csv(
 }
 
 /// Correspondences of every frame extracted geometrically (see the module docs).
-pub fn extract_contacts(robot: &Robot, object: &ObjectGeometry, poses: &[Pose]) -> Vec<Vec<Contact>> {
+pub fn extract_contacts(
+    robot: &Robot,
+    object: &ObjectGeometry,
+    poses: &[Pose],
+) -> Vec<Vec<Contact>> {
     use rayon::prelude::*;
     let params = ContactParams::default();
     let samples = contacts::hand_samples(robot, params.spacing_mm * 1e-3);
@@ -278,7 +302,14 @@ pub fn extract_contacts(robot: &Robot, object: &ObjectGeometry, poses: &[Pose]) 
             || robot.new_link_poses(),
             |links, (o, w, q)| {
                 robot.forward_kinematics(w, q, links);
-                contacts::extract(robot, &samples, links, object, o, params.max_distance_mm * 1e-3)
+                contacts::extract(
+                    robot,
+                    &samples,
+                    links,
+                    object,
+                    o,
+                    params.max_distance_mm * 1e-3,
+                )
             },
         )
         .collect()
@@ -313,7 +344,10 @@ fn finish(
         fps,
         robot: abs(&target.robot),
         object: ObjectInfo {
-            name: target.object_name.clone().unwrap_or_else(|| stem(&target.mesh)),
+            name: target
+                .object_name
+                .clone()
+                .unwrap_or_else(|| stem(&target.mesh)),
             mesh: abs(&target.mesh),
             mass: target.mass,
         },
@@ -340,7 +374,9 @@ fn finish(
     }
     // Paths relative to the output's folder (absolute first, so they resolve from anywhere).
     let out_abs = match target.out.parent() {
-        Some(d) if !d.as_os_str().is_empty() => abs(d).join(target.out.file_name().unwrap_or_default()),
+        Some(d) if !d.as_os_str().is_empty() => {
+            abs(d).join(target.out.file_name().unwrap_or_default())
+        }
         _ => abs(Path::new(".")).join(&target.out),
     };
     crate::synth::demo::save_compact(&demo, &out_abs)?;
@@ -416,14 +452,21 @@ pub fn import_lerobot(
     let ds = lerobot::read(root)?;
     let info_path = root.join("meta/info.json");
     let fps = ds.info["fps"].as_f64().ok_or_else(|| {
-        Error::invalid(&info_path, "fps", "is missing or not a number; expected the frame rate [Hz]")
+        Error::invalid(
+            &info_path,
+            "fps",
+            "is missing or not a number; expected the frame rate [Hz]",
+        )
     })?;
     let total = ds.episodes.rows;
     if episode >= total {
         return Err(Error::invalid(
             root,
             "--episode",
-            format!("is {episode}; the dataset has {total} episodes (0..{})", total.max(1) - 1),
+            format!(
+                "is {episode}; the dataset has {total} episodes (0..{})",
+                total.max(1) - 1
+            ),
         ));
     }
     let data = root.join("data");
@@ -431,24 +474,36 @@ pub fn import_lerobot(
     let fi = ds.frames.ints(&data, "frame_index")?;
     let state = ds.frames.vectors(&data, &mapping.state_key)?;
     let object = ds.frames.vectors(&data, &mapping.object_key)?;
-    let mut rows: Vec<usize> = (0..ds.frames.rows).filter(|&i| ep[i] == episode as i64).collect();
+    let mut rows: Vec<usize> = (0..ds.frames.rows)
+        .filter(|&i| ep[i] == episode as i64)
+        .collect();
     rows.sort_by_key(|&i| fi[i]);
     if rows.is_empty() {
-        return Err(Error::invalid(&data, "episode_index", format!("has no frame of episode {episode}")));
+        return Err(Error::invalid(
+            &data,
+            "episode_index",
+            format!("has no frame of episode {episode}"),
+        ));
     }
     // Joint order: the feature's names when they are the robot's joints.
     let dof = robot.dof();
     let names: Vec<String> = ds.info["features"][&mapping.state_key]["names"]
         .as_array()
-        .map(|a| a.iter().filter_map(|v| v.as_str().map(str::to_string)).collect())
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(str::to_string))
+                .collect()
+        })
         .unwrap_or_default();
-    let order: Vec<usize> = if names.len() == 7 + dof
-        && names[7..].iter().all(|n| robot.actuated_index(n).is_some())
-    {
-        names[7..].iter().map(|n| robot.actuated_index(n).unwrap_or(0)).collect()
-    } else {
-        (0..dof).collect()
-    };
+    let order: Vec<usize> =
+        if names.len() == 7 + dof && names[7..].iter().all(|n| robot.actuated_index(n).is_some()) {
+            names[7..]
+                .iter()
+                .map(|n| robot.actuated_index(n).unwrap_or(0))
+                .collect()
+        } else {
+            (0..dof).collect()
+        };
     let (sk, ok) = (&mapping.state_key, &mapping.object_key);
     let mut poses = Vec::with_capacity(rows.len());
     for (k, &i) in rows.iter().enumerate() {
@@ -467,15 +522,32 @@ pub fn import_lerobot(
             ));
         }
         if o.len() != 7 {
-            return Err(Error::invalid(&data, field(ok), format!("has {} values; expected 7 (object pose)", o.len())));
+            return Err(Error::invalid(
+                &data,
+                field(ok),
+                format!("has {} values; expected 7 (object pose)", o.len()),
+            ));
         }
         if let Some(v) = s.iter().chain(o.iter()).find(|v| !v.is_finite()) {
-            return Err(Error::invalid(&data, field(sk), format!("holds {v}; expected finite numbers")));
+            return Err(Error::invalid(
+                &data,
+                field(sk),
+                format!("holds {v}; expected finite numbers"),
+            ));
         }
         let pose = |v: &[f64], key: &str| -> Result<Isometry3<f64>> {
-            let q = crate::math::rotation::quat_from_wxyz([v[3], v[4], v[5], v[6]])
-                .map_err(|e| Error::invalid(&data, field(key), format!("{e}; values 3..7 must be a unit quaternion [w, x, y, z]")))?;
-            Ok(Isometry3::from_parts(Translation3::new(v[0], v[1], v[2]), q))
+            let q =
+                crate::math::rotation::quat_from_wxyz([v[3], v[4], v[5], v[6]]).map_err(|e| {
+                    Error::invalid(
+                        &data,
+                        field(key),
+                        format!("{e}; values 3..7 must be a unit quaternion [w, x, y, z]"),
+                    )
+                })?;
+            Ok(Isometry3::from_parts(
+                Translation3::new(v[0], v[1], v[2]),
+                q,
+            ))
         };
         let mut q = vec![0.0; dof];
         for (j, &a) in order.iter().enumerate() {
