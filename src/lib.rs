@@ -17,9 +17,11 @@
 pub mod augment;
 pub mod batch;
 pub mod error;
+pub mod export;
 pub mod filter;
 pub mod geometry;
 pub mod hand;
+pub mod import;
 pub mod limits;
 pub mod math;
 pub mod metrics;

@@ -342,6 +342,96 @@ enum Command {
         #[arg(long, value_name = "X", default_value_t = 1.5, value_parser = non_negative, allow_negative_numbers = true)]
         time_ratio: f64,
     },
+    /// Write the trajectories below DIR (reports with their warped demonstrations, or
+    /// .demo.json files) as one training dataset, quality figures as per-episode columns.
+    #[command(
+        after_help = "Formats: lerobot (LeRobot v3.0, state only). The column mapping is in the README (Export and import).\n\nExamples:\n  dexwarp export reports/latest --format lerobot --robot human_hand --out out/dataset\n  dexwarp export out/aug/mug --format lerobot --only-passing --out out/mug_kept\n  dexwarp export out/mug.demo.json --format lerobot --fps 30 --out out/mug_lerobot"
+    )]
+    Export {
+        /// Folders (searched recursively for report.json) or demonstration files.
+        #[arg(required = true, value_name = "DIR")]
+        inputs: Vec<PathBuf>,
+        /// Dataset format.
+        #[arg(long, value_enum)]
+        format: ExportFormat,
+        /// Dataset folder to create (written atomically).
+        #[arg(long, value_name = "OUT")]
+        out: PathBuf,
+        /// Only trajectories whose physics verdict is pass.
+        #[arg(long)]
+        only_passing: bool,
+        /// Frame rate of the dataset [Hz]; must divide the trajectories' rate (every k-th frame is kept).
+        #[arg(long, value_name = "F")]
+        fps: Option<u32>,
+        /// Only trajectories of this robot (URDF file stem, e.g. human_hand); needed when DIR holds several.
+        #[arg(long, value_name = "NAME")]
+        robot: Option<String>,
+        /// Largest data file [MB] before the next one starts (LeRobot's data_files_size_in_mb).
+        #[arg(long, value_name = "MB", default_value_t = 100)]
+        data_file_mb: u64,
+        /// Replace OUT if it exists.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Make a dexwarp.demo/1 file from a recording: a CSV of frames (optionally a CSV of
+    /// contacts), or one episode of a LeRobot v3 dataset; correspondences are extracted
+    /// geometrically when not given.
+    #[command(
+        after_help = "CSV columns: object.x,object.y,object.z,object.qw,object.qx,object.qy,object.qz, wrist.x..wrist.qz, one column per actuated joint of the URDF (see the README).\n\nExamples:\n  dexwarp import --csv rec.csv --fps 30 --robot robots/human_hand.urdf --mesh scenes/objects/mug.obj --mass 0.3 --out out/rec.demo.json\n  dexwarp import --csv rec.csv --contacts rec.contacts.csv --fps 30 --robot robots/human_hand.urdf --mesh mug.obj --mass 0.3 --out out/rec.demo.json\n  dexwarp import --lerobot out/dataset --episode 3 --robot robots/human_hand.urdf --mesh scenes/objects/mug.obj --mass 0.3 --out out/ep3.demo.json"
+    )]
+    Import {
+        /// Frames CSV.
+        #[arg(
+            long,
+            value_name = "FILE",
+            conflicts_with = "lerobot",
+            required_unless_present = "lerobot"
+        )]
+        csv: Option<PathBuf>,
+        /// Contacts CSV for --csv (frame, link, hand_x..z, object_x..z).
+        #[arg(long, value_name = "FILE", requires = "csv")]
+        contacts: Option<PathBuf>,
+        /// Frame rate of the CSV [Hz].
+        #[arg(long, value_name = "HZ", requires = "csv")]
+        fps: Option<f64>,
+        /// A LeRobot v3 dataset folder.
+        #[arg(long, value_name = "DIR")]
+        lerobot: Option<PathBuf>,
+        /// Episode of the LeRobot dataset.
+        #[arg(long, value_name = "N", default_value_t = 0)]
+        episode: usize,
+        /// LeRobot feature holding the wrist pose (7) then the joints.
+        #[arg(long, value_name = "KEY", default_value = "observation.state")]
+        state_key: String,
+        /// LeRobot feature holding the object pose (7).
+        #[arg(
+            long,
+            value_name = "KEY",
+            default_value = "observation.environment_state"
+        )]
+        object_key: String,
+        /// URDF of the hand.
+        #[arg(long, value_name = "URDF")]
+        robot: PathBuf,
+        /// Object mesh (OBJ or STL).
+        #[arg(long, value_name = "FILE")]
+        mesh: PathBuf,
+        /// Object mass [kg].
+        #[arg(long, value_name = "KG")]
+        mass: f64,
+        /// Name of the demonstration (default: the output file's stem).
+        #[arg(long, value_name = "NAME")]
+        name: Option<String>,
+        /// Output demonstration file.
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ExportFormat {
+    /// LeRobot v3.0 (parquet and meta/), state only.
+    Lerobot,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -754,6 +844,95 @@ fn run(cli: Cli) -> Result<()> {
                 s.timing.skipped_now,
                 s.timing.samples_per_hour,
                 out.join(file).display()
+            );
+            Ok(())
+        }
+        Command::Export {
+            inputs,
+            format: ExportFormat::Lerobot,
+            out,
+            only_passing,
+            fps,
+            robot,
+            data_file_mb,
+            force,
+        } => {
+            let mut options = dexwarp::export::ExportOptions::new(inputs, out.clone());
+            options.only_passing = only_passing;
+            options.fps = fps;
+            options.robot = robot;
+            options.data_file_mb = data_file_mb.max(1);
+            options.force = force;
+            options.progress = true;
+            let t = std::time::Instant::now();
+            let done = dexwarp::export::export_lerobot(&options, &limits)?;
+            for (p, why) in &done.skipped {
+                eprintln!("skipped {}: {why}", p.display());
+            }
+            eprintln!(
+                "wrote {}: {} episodes, {} frames, {} data file(s), {} skipped, in {:.1} s",
+                out.display(),
+                done.episodes,
+                done.frames,
+                done.data_files,
+                done.skipped.len(),
+                t.elapsed().as_secs_f64()
+            );
+            Ok(())
+        }
+        Command::Import {
+            csv,
+            contacts,
+            fps,
+            lerobot,
+            episode,
+            state_key,
+            object_key,
+            robot,
+            mesh,
+            mass,
+            name,
+            out,
+        } => {
+            let target = dexwarp::import::Target {
+                name,
+                robot,
+                mesh,
+                mass,
+                object_name: None,
+                out: out.clone(),
+            };
+            let demo = match (csv, lerobot) {
+                (Some(csv), _) => {
+                    let Some(fps) = fps else {
+                        anyhow::bail!(
+                            "--fps is required with --csv: the frame rate of the recording [Hz]"
+                        );
+                    };
+                    dexwarp::import::import_csv(&csv, contacts.as_deref(), fps, &target, &limits)?
+                }
+                (None, Some(root)) => dexwarp::import::import_lerobot(
+                    &root,
+                    episode,
+                    &dexwarp::import::LerobotMapping {
+                        state_key,
+                        object_key,
+                    },
+                    &target,
+                    &limits,
+                )?,
+                (None, None) => anyhow::bail!("give --csv FILE or --lerobot DIR"),
+            };
+            let with = demo
+                .frames
+                .iter()
+                .filter(|f| !f.contacts.is_empty())
+                .count();
+            eprintln!(
+                "wrote {}: {} frames at {} Hz, {with} with correspondences",
+                out.display(),
+                demo.frames.len(),
+                demo.fps
             );
             Ok(())
         }

@@ -1,6 +1,7 @@
 //! All integration tests in one binary (one link step on a 2-core machine).
 mod augment;
 mod cli;
+mod export;
 mod fixtures;
 mod hands;
 mod harden;

@@ -1,0 +1,506 @@
+//! `export` and `import`: a LeRobot v3 dataset read back through the parquet crate frame by
+//! frame and column by column, CSV import errors, and import -> export -> import.
+
+use std::path::Path;
+
+use dexwarp::Limits;
+use dexwarp::export::lerobot::{self, Column};
+use dexwarp::model::demo::Demo;
+use serde_json::Value;
+
+use crate::fixtures::{dexwarp, gripper_fixture, repo, stderr};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn state_of(d: &Demo, i: usize) -> Vec<f64> {
+    let f = &d.frames[i];
+    let t = f.wrist.translation.vector;
+    let q = f.wrist.rotation.quaternion();
+    let mut v = vec![t.x, t.y, t.z, q.w, q.i, q.j, q.k];
+    v.extend(&f.joints);
+    v.iter().map(|&x| x as f32 as f64).collect()
+}
+
+fn object_of(d: &Demo, i: usize) -> Vec<f64> {
+    let f = &d.frames[i];
+    let t = f.object.translation.vector;
+    let q = f.object.rotation.quaternion();
+    [t.x, t.y, t.z, q.w, q.i, q.j, q.k]
+        .iter()
+        .map(|&x| x as f32 as f64)
+        .collect()
+}
+
+fn float(t: &lerobot::Table, name: &str, row: usize) -> Option<f64> {
+    match &t.columns[name] {
+        Column::Floats(v) => v[row],
+        c => panic!("{name} is {c:?}"),
+    }
+}
+
+fn string(t: &lerobot::Table, name: &str, row: usize) -> String {
+    match &t.columns[name] {
+        Column::Strings(v) => v[row].clone().unwrap_or_default(),
+        c => panic!("{name} is {c:?}"),
+    }
+}
+
+/// Two warps of the gripper fixture (contact IK and baseline), with physics, in `dir/runs`.
+fn small_batch(dir: &Path) -> std::path::PathBuf {
+    let config = gripper_fixture(dir);
+    let runs = dir.join("runs");
+    for (hand, sub) in [("contact", "a"), ("baseline", "b")] {
+        let o = dexwarp(&[
+            "warp",
+            "--config",
+            s(&config),
+            "--out",
+            s(&runs.join(sub)),
+            "--hand",
+            hand,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    runs
+}
+
+#[test]
+fn lerobot_export_reads_back_every_frame_and_quality_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = small_batch(dir.path());
+    let out = dir.path().join("dataset");
+    let o = dexwarp(&["export", s(&runs), "--format", "lerobot", "--out", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // No temporaries left beside the dataset.
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().contains("dexwarp-tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+
+    let ds = lerobot::read(&out).unwrap();
+    let limits = Limits::default();
+    let reports: Vec<Value> = ["a", "b"]
+        .iter()
+        .map(|k| {
+            serde_json::from_slice(&std::fs::read(runs.join(k).join("report.json")).unwrap())
+                .unwrap()
+        })
+        .collect();
+    let demos: Vec<Demo> = ["a", "b"]
+        .iter()
+        .map(|k| Demo::load(&runs.join(k).join("box_lift.demo.json"), &limits).unwrap())
+        .collect();
+    let info = &ds.info;
+    assert_eq!(info["codebase_version"], "v3.0");
+    assert_eq!(info["fps"], 30);
+    assert_eq!(info["robot_type"], "parallel_gripper");
+    assert_eq!(info["total_episodes"], 2);
+    assert_eq!(info["video_path"], Value::Null);
+    let total: usize = demos.iter().map(|d| d.frames.len()).sum();
+    assert_eq!(info["total_frames"], total);
+    assert_eq!(info["features"]["observation.state"]["shape"][0], 8);
+    assert_eq!(
+        info["features"]["observation.state"]["names"][7],
+        "finger_joint1"
+    );
+    assert_eq!(ds.frames.rows, total);
+
+    // Every frame, as written.
+    let data = out.join("data");
+    let state = ds.frames.vectors(&data, "observation.state").unwrap();
+    let env = ds
+        .frames
+        .vectors(&data, "observation.environment_state")
+        .unwrap();
+    let action = ds.frames.vectors(&data, "action").unwrap();
+    let ep = ds.frames.ints(&data, "episode_index").unwrap();
+    let fi = ds.frames.ints(&data, "frame_index").unwrap();
+    let idx = ds.frames.ints(&data, "index").unwrap();
+    let Column::Floats(ts) = &ds.frames.columns["timestamp"] else {
+        panic!("timestamp is not a float column");
+    };
+    let mut row = 0;
+    for (e, d) in demos.iter().enumerate() {
+        let n = d.frames.len();
+        for i in 0..n {
+            assert_eq!(
+                (ep[row], fi[row], idx[row]),
+                (e as i64, i as i64, row as i64)
+            );
+            assert_eq!(state[row], state_of(d, i), "episode {e} frame {i}");
+            assert_eq!(env[row], object_of(d, i), "episode {e} frame {i}");
+            assert_eq!(
+                action[row],
+                state_of(d, (i + 1).min(n - 1)),
+                "episode {e} frame {i}"
+            );
+            assert_eq!(ts[row], Some((i as f64 / 30.0) as f32 as f64));
+            row += 1;
+        }
+    }
+
+    // Every quality column, as in the reports.
+    let eps = &ds.episodes;
+    assert_eq!(eps.rows, 2);
+    let from = eps.ints(&out, "dataset_from_index").unwrap();
+    let to = eps.ints(&out, "dataset_to_index").unwrap();
+    assert_eq!(
+        (from[1], to[1]),
+        (demos[0].frames.len() as i64, total as i64)
+    );
+    for (e, r) in reports.iter().enumerate() {
+        let m = &r["metrics"];
+        assert_eq!(
+            string(eps, "quality/verdict", e),
+            r["physics"]["verdict"].as_str().unwrap()
+        );
+        assert_eq!(string(eps, "quality/name", e), "box_lift");
+        assert_eq!(
+            float(eps, "quality/d_c_mm", e),
+            m["d_c_mm"]["warped"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/d_c_original_mm", e),
+            m["d_c_mm"]["original"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/d_wo_mm", e),
+            m["d_wo_mm"]["warped"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/plr_object", e),
+            m["plr_object"].as_f64()
+        );
+        assert_eq!(float(eps, "quality/plr_hand", e), m["plr_hand"].as_f64());
+        assert_eq!(
+            float(eps, "quality/timewarp_discrepancy", e),
+            m["timewarp_discrepancy"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/physics_hand_object_penetration_mm", e),
+            r["physics"]["penetration"]["hand_object"]["max_mm"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/tracking_max_position_error_mm", e),
+            r["physics"]["tracking"]["max_position_error_mm"].as_f64()
+        );
+        assert_eq!(
+            float(eps, "quality/ik_converged_fraction", e),
+            r["ik"]["converged_fraction"].as_f64()
+        );
+        assert!(string(eps, "quality/source_demo", e).ends_with("box.demo.json"));
+        assert!(string(eps, "quality/config", e).ends_with("lift.config.json"));
+        let Column::StringLists(reasons) = &eps.columns["quality/failure_reasons"] else {
+            panic!("failure_reasons is not a list of strings");
+        };
+        let want: Vec<String> = r["physics"]["reasons"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_str().unwrap().to_string())
+            .collect();
+        assert_eq!(reasons[e], want);
+        let Column::Bools(passed) = &eps.columns["quality/passed"] else {
+            panic!("passed is not boolean");
+        };
+        assert_eq!(passed[e], r["physics"]["verdict"] == "pass");
+    }
+    let tasks = lerobot::read_parquet(&out.join("meta/tasks.parquet")).unwrap();
+    assert_eq!(tasks.rows, 1);
+    assert_eq!(string(&tasks, "task", 0), "small_box: box_lift");
+    let stats: Value =
+        serde_json::from_slice(&std::fs::read(out.join("meta/stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["observation.state"]["count"][0], total);
+    assert_eq!(stats["index"]["max"][0], (total - 1) as f64);
+
+    // The same values through an independent reader, pyarrow, when CI provides one.
+    pyarrow_readback(&out, &demos, &reports);
+
+    // --only-passing keeps exactly the passing trajectories; an existing OUT is refused.
+    let passing = reports
+        .iter()
+        .filter(|r| r["physics"]["verdict"] == "pass")
+        .count();
+    let out2 = dir.path().join("passing");
+    let o = dexwarp(&[
+        "export",
+        s(&runs),
+        "--format",
+        "lerobot",
+        "--only-passing",
+        "--out",
+        s(&out2),
+    ]);
+    if passing == 0 {
+        assert!(
+            !o.status.success() && stderr(&o).contains("no trajectory"),
+            "{}",
+            stderr(&o)
+        );
+    } else {
+        assert!(o.status.success(), "{}", stderr(&o));
+        let info: Value =
+            serde_json::from_slice(&std::fs::read(out2.join("meta/info.json")).unwrap()).unwrap();
+        assert_eq!(info["total_episodes"], passing);
+    }
+    let o = dexwarp(&["export", s(&runs), "--format", "lerobot", "--out", s(&out)]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("--force"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// The gripper fixture's demonstration as a frames CSV.
+fn write_csv(demo: &Demo, path: &Path, drop: Option<&str>, edit: impl Fn(usize, &mut Vec<String>)) {
+    let mut header: Vec<String> = ["object", "wrist"]
+        .iter()
+        .flat_map(|p| ["x", "y", "z", "qw", "qx", "qy", "qz"].map(|c| format!("{p}.{c}")))
+        .collect();
+    header.extend(demo.joint_names.iter().cloned());
+    let keep: Vec<bool> = header.iter().map(|h| Some(h.as_str()) != drop).collect();
+    let mut text = String::new();
+    let line = |cells: Vec<String>| -> String {
+        cells
+            .into_iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(c, _)| c)
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    text.push_str(&line(header.clone()));
+    text.push('\n');
+    for (i, f) in demo.frames.iter().enumerate() {
+        let mut cells = Vec::new();
+        for iso in [&f.object, &f.wrist] {
+            let t = iso.translation.vector;
+            let q = iso.rotation.quaternion();
+            cells.extend([t.x, t.y, t.z, q.w, q.i, q.j, q.k].map(|v| v.to_string()));
+        }
+        cells.extend(f.joints.iter().map(|v| v.to_string()));
+        edit(i, &mut cells);
+        text.push_str(&line(cells));
+        text.push('\n');
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+fn import_args<'a>(csv: &'a str, out: &'a str) -> Vec<&'a str> {
+    vec![
+        "import", "--csv", csv, "--fps", "30", "--robot", "ROBOT", "--mesh", "MESH", "--mass",
+        "0.1", "--out", out,
+    ]
+}
+
+fn run_import(args: Vec<&str>) -> std::process::Output {
+    let robot = repo("robots/parallel_gripper.urdf");
+    let mesh = repo("scenes/objects/small_box.obj");
+    let args: Vec<&str> = args
+        .into_iter()
+        .map(|a| match a {
+            "ROBOT" => robot.to_str().unwrap(),
+            "MESH" => mesh.to_str().unwrap(),
+            a => a,
+        })
+        .collect();
+    dexwarp(&args)
+}
+
+/// A bad CSV: file name, column left out, edit of row i's cells, words the error must hold.
+type Case<'a> = (
+    &'a str,
+    Option<&'a str>,
+    fn(usize, &mut Vec<String>),
+    &'a [&'a str],
+);
+
+#[test]
+fn import_csv_errors_name_the_column_and_the_row() {
+    let dir = tempfile::tempdir().unwrap();
+    gripper_fixture(dir.path());
+    let demo = Demo::load(&dir.path().join("box.demo.json"), &Limits::default()).unwrap();
+    let out = dir.path().join("out.demo.json");
+    let cases: [Case; 4] = [
+        (
+            "missing.csv",
+            Some("wrist.qy"),
+            |_, _| {},
+            &["missing.csv", "column wrist.qy", "missing"],
+        ),
+        (
+            "nan.csv",
+            None,
+            |i, c| {
+                if i == 6 {
+                    c[14] = "NaN".into()
+                }
+            },
+            &["nan.csv", "row 7, column finger_joint1", "NaN"],
+        ),
+        (
+            "short.csv",
+            None,
+            |i, c| {
+                if i == 2 {
+                    c.pop();
+                }
+            },
+            &["short.csv", "row 3", "has 14 fields; expected 15"],
+        ),
+        (
+            "text.csv",
+            None,
+            |i, c| {
+                if i == 0 {
+                    c[1] = "abc".into()
+                }
+            },
+            &["text.csv", "row 1, column object.y", "expected a number"],
+        ),
+    ];
+    for (name, drop, edit, want) in cases {
+        let csv = dir.path().join(name);
+        write_csv(&demo, &csv, drop, edit);
+        let o = run_import(import_args(s(&csv), s(&out)));
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{name}: {err}");
+        for w in want {
+            assert!(err.contains(w), "{name}: {err:?} lacks {w:?}");
+        }
+        assert!(!out.exists(), "{name}: a failed import wrote its output");
+    }
+}
+
+#[test]
+fn import_then_export_then_import_gives_the_same_trajectory() {
+    let dir = tempfile::tempdir().unwrap();
+    gripper_fixture(dir.path());
+    let limits = Limits::default();
+    let src = Demo::load(&dir.path().join("box.demo.json"), &limits).unwrap();
+    let csv = dir.path().join("rec.csv");
+    write_csv(&src, &csv, None, |_, _| {});
+    let first = dir.path().join("rec.demo.json");
+    let o = run_import(import_args(s(&csv), s(&first)));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = Demo::load(&first, &limits).unwrap();
+    // Correspondences were extracted where the jaws hold the box (the fixture's hand keeps
+    // its grip pose throughout, so every frame has some), on both jaws.
+    for i in 10..50 {
+        let c = &a.frames[i].contacts;
+        assert!(
+            c.iter().any(|c| c.link == "left_finger") && c.iter().any(|c| c.link == "right_finger"),
+            "frame {i}: {c:?}"
+        );
+    }
+
+    let ds = dir.path().join("ds");
+    let o = dexwarp(&["export", s(&first), "--format", "lerobot", "--out", s(&ds)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let second = dir.path().join("back.demo.json");
+    let mut args = vec!["import", "--lerobot", s(&ds), "--episode", "0"];
+    args.extend([
+        "--robot",
+        "ROBOT",
+        "--mesh",
+        "MESH",
+        "--mass",
+        "0.1",
+        "--out",
+        s(&second),
+    ]);
+    let o = run_import(args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let b = Demo::load(&second, &limits).unwrap();
+    assert_eq!(b.name, "rec");
+    assert_eq!(b.fps, a.fps);
+    assert_eq!(b.joint_names, a.joint_names);
+    assert_eq!(b.frames.len(), a.frames.len());
+    // float32 precision: 2^-24 relative; positions about 1 m, quaternions unit.
+    let tol = 1e-6;
+    for (i, (fa, fb)) in a.frames.iter().zip(&b.frames).enumerate() {
+        for (pa, pb) in [(&fa.object, &fb.object), (&fa.wrist, &fb.wrist)] {
+            let dt = (pa.translation.vector - pb.translation.vector).norm();
+            let dq = pa.rotation.angle_to(&pb.rotation);
+            assert!(dt < tol && dq < tol, "frame {i}: {dt} m, {dq} rad");
+        }
+        for (x, y) in fa.joints.iter().zip(&fb.joints) {
+            assert!((x - y).abs() < tol, "frame {i}: joint {x} vs {y}");
+        }
+        assert_eq!(
+            fa.contacts.len(),
+            fb.contacts.len(),
+            "frame {i}: correspondences re-extracted from the float32 poses"
+        );
+    }
+}
+
+/// Runs `scripts/export/readback.py` with `$DEXWARP_PYTHON` (a Python with pyarrow; `.ci/run`
+/// makes one) on the dataset, against values taken from the demonstrations and reports.
+fn pyarrow_readback(out: &Path, demos: &[Demo], reports: &[Value]) {
+    let Ok(python) = std::env::var("DEXWARP_PYTHON") else {
+        eprintln!(
+            "notice: DEXWARP_PYTHON not set; skipping the pyarrow readback (.ci/run sets it)"
+        );
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must set DEXWARP_PYTHON"
+        );
+        return;
+    };
+    let (mut state, mut env, mut action, mut ts, mut fi, mut ep, mut idx) =
+        (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+    for (e, d) in demos.iter().enumerate() {
+        let n = d.frames.len();
+        for i in 0..n {
+            state.push(state_of(d, i));
+            env.push(object_of(d, i));
+            action.push(state_of(d, (i + 1).min(n - 1)));
+            ts.push((i as f64 / 30.0) as f32 as f64);
+            fi.push(i);
+            ep.push(e);
+            idx.push(idx.len());
+        }
+    }
+    let col = |f: &dyn Fn(&Value) -> Value| -> Vec<Value> { reports.iter().map(f).collect() };
+    let expected = serde_json::json!({
+        "frames": {
+            "observation.state": state, "observation.environment_state": env, "action": action,
+            "timestamp": ts, "frame_index": fi, "episode_index": ep, "index": idx,
+            "task_index": vec![0; idx.len()],
+        },
+        "episodes": {
+            "episode_index": [0, 1],
+            "length": demos.iter().map(|d| d.frames.len()).collect::<Vec<_>>(),
+            "quality/verdict": col(&|r| r["physics"]["verdict"].clone()),
+            "quality/passed": col(&|r| Value::Bool(r["physics"]["verdict"] == "pass")),
+            "quality/failure_reasons": col(&|r| r["physics"]["reasons"].clone()),
+            "quality/d_c_mm": col(&|r| r["metrics"]["d_c_mm"]["warped"].clone()),
+            "quality/d_wo_mm": col(&|r| r["metrics"]["d_wo_mm"]["warped"].clone()),
+            "quality/plr_object": col(&|r| r["metrics"]["plr_object"].clone()),
+            "quality/timewarp_discrepancy": col(&|r| r["metrics"]["timewarp_discrepancy"].clone()),
+            "quality/tracking_max_rotation_error_deg":
+                col(&|r| r["physics"]["tracking"]["max_rotation_error_deg"].clone()),
+        },
+        "tasks": ["small_box: box_lift"],
+    });
+    let path = out.with_extension("expected.json");
+    std::fs::write(&path, expected.to_string()).unwrap();
+    let o = std::process::Command::new(&python)
+        .arg(repo("scripts/export/readback.py"))
+        .arg(out)
+        .arg(&path)
+        .output()
+        .expect("run the pyarrow readback");
+    assert!(
+        o.status.success(),
+        "pyarrow readback: {}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    eprintln!("{}", String::from_utf8_lossy(&o.stdout).trim());
+}
