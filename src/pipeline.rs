@@ -142,6 +142,10 @@ impl Inputs {
     }
 }
 
+/// How long the IK hand's difference from the rigid transfer fades out beyond each end of
+/// the contact segment [s] (stage 5c, [`smooth::ease_ends`]).
+const EASE_S: f64 = 0.25;
+
 /// Runs the pipeline on loaded inputs (see the module docs for the stages).
 pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let Inputs {
@@ -212,6 +216,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     }
     let mut unsmoothed: Option<HandPath> = None;
     let mut guard_stats: Option<guard::Stats> = None;
+    let mut guard_with = None;
     let mut ik_tolerance_mm: Option<f64> = None;
     let (hand, ik_stats) = match options.hand {
         HandMethod::Baseline => (base, None),
@@ -257,25 +262,16 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             let range = object.plan.segment.start..=object.plan.t_end_new();
             let (mut hand, _) = smooth::run(&raw, range.clone(), &smooth::Params::default())
                 .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
+            // Stage 5c: no jump between the IK hand and the rigid transfer at the segment's
+            // ends: the difference fades out over `EASE_S` outside it.
+            let ease = ((EASE_S * demo.fps).round() as usize).max(1);
+            smooth::ease_ends(&mut hand, &base, range.clone(), ease, |q| {
+                robot.clamp(q);
+            });
             timing.insert("smooth".into(), clock.elapsed().as_secs_f64());
 
-            // Stage 5b: the smoothing may not press the hand deeper than the IK left it.
-            if let (Objective::NonPenetrating, Some(sdf)) = (params.objective, &object_sdf) {
-                let guard_params = guard::Params {
-                    tolerance_m: params.penetration_tolerance_mm * 1e-3,
-                    ..guard::Params::default()
-                };
-                let g = guard::run(
-                    robot,
-                    sdf,
-                    |t| object.path().pose(t),
-                    &raw,
-                    &mut hand,
-                    range,
-                    &guard_params,
-                );
-                timing.insert("smooth_guard".into(), g.time_s);
-                guard_stats = Some(g);
+            if let (Objective::NonPenetrating, Some(sdf)) = (params.objective, object_sdf) {
+                guard_with = Some((sdf, params.penetration_tolerance_mm * 1e-3));
             }
             unsmoothed = Some(raw);
             (hand, Some(stats))
@@ -283,8 +279,29 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     };
 
     // Stage 4b: the hand's own path outside contact pushed out of the barriers.
-    let (hand, hand_push) = hand_pushout(config, scene, &object, hand, &options.limits)?;
+    let (mut hand, hand_push) = hand_pushout(config, scene, &object, hand, &options.limits)?;
     timing.insert("hand_pushout".into(), hand_push.time_s);
+
+    // Stage 5b (non-penetrating objective): neither the smoothing, nor the fade at the
+    // segment's ends, nor the push-out may press the hand deeper into the object than the
+    // IK (or, outside the segment, the rigid transfer) left it.
+    if let (Some((sdf, tolerance_m)), Some(raw)) = (&guard_with, &unsmoothed) {
+        let last = hand.len() - 1;
+        let g = guard::run(
+            robot,
+            sdf,
+            |t| object.path().pose(t),
+            raw,
+            &mut hand,
+            0..=last,
+            &guard::Params {
+                tolerance_m: *tolerance_m,
+                ..guard::Params::default()
+            },
+        );
+        timing.insert("smooth_guard".into(), g.time_s);
+        guard_stats = Some(g);
+    }
 
     check_hand(&config.source, "hand recovery (4-5)", &hand)?;
     let mut out = assemble(demo, &object, &hand, &config.name);

@@ -1,5 +1,8 @@
 //! Stage 5b: smoothing never presses the hand into the object (docs/METHOD.md, "Smoothing
-//! without pressing in").
+//! without pressing in"). The pipeline runs it last, over every output frame, so the same
+//! rule also covers the fade at the contact segment's ends ([`super::smooth::ease_ends`])
+//! and the hand's barrier push-out outside the segment ([`super::pushout`]), which moved
+//! the community LEAP hand's thumb 7 mm into the cube on the first frame after the release.
 //!
 //! Smoothing averages neighbouring IK solutions. Where consecutive output frames use input
 //! frames far apart (`t*` jumps where the retiming compresses time: frames where the

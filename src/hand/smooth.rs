@@ -22,7 +22,7 @@
 use std::ops::RangeInclusive;
 use std::time::Instant;
 
-use nalgebra::Vector3;
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::HandPath;
@@ -152,4 +152,63 @@ pub fn run(
     }
     stats.time_s = clock.elapsed().as_secs_f64();
     Ok((out, stats))
+}
+
+/// Stage 5c: no step at the ends of the contact segment. Inside `range` the hand is the
+/// (smoothed) IK solution, outside it the rigid transfer `base`; where they differ at the
+/// first and last frame of the range, the hand would jump between two output frames (a
+/// jump of a kinematic hand knocks the object: the first frame after the release, or the
+/// last before the grasp). The difference at each end, in the wrist frame and per joint, is
+/// carried into the `frames` neighbouring frames outside the range with a weight falling
+/// linearly from 1 to 0: frame `t` at `k` frames from the end gets
+/// `base(t) · δ^{w}`, `q(t) + w·Δq`, `w = 1 − k/(frames + 1)`, joints clamped to their
+/// limits. Returns the frames changed.
+pub fn ease_ends(
+    hand: &mut HandPath,
+    base: &HandPath,
+    range: RangeInclusive<usize>,
+    frames: usize,
+    clamp: impl Fn(&mut [f64]),
+) -> usize {
+    let (a, b) = (*range.start(), *range.end());
+    let n = hand.len();
+    if a > b || b >= n || base.len() != n || frames == 0 {
+        return 0;
+    }
+    let dof = hand.dof;
+    let mut changed = 0;
+    for (edge, forward) in [(a, false), (b, true)] {
+        let d_wrist = base.wrists[edge].inverse() * hand.wrists[edge];
+        let d_q: Vec<f64> = hand
+            .q(edge)
+            .iter()
+            .zip(base.q(edge))
+            .map(|(h, b)| h - b)
+            .collect();
+        for k in 1..=frames {
+            let t = if forward {
+                edge + k
+            } else if let Some(t) = edge.checked_sub(k) {
+                t
+            } else {
+                break;
+            };
+            if t >= n || range.contains(&t) {
+                break;
+            }
+            let w = 1.0 - k as f64 / (frames as f64 + 1.0);
+            let delta = Isometry3::from_parts(
+                Translation3::from(d_wrist.translation.vector * w),
+                UnitQuaternion::identity().nlerp(&d_wrist.rotation, w),
+            );
+            hand.wrists[t] *= delta;
+            let q = &mut hand.joints[t * dof..(t + 1) * dof];
+            for (v, d) in q.iter_mut().zip(&d_q) {
+                *v += w * d;
+            }
+            clamp(q);
+            changed += 1;
+        }
+    }
+    changed
 }

@@ -343,6 +343,7 @@ fn finish(
         name: target.name.clone().unwrap_or_else(|| stem(&target.out)),
         fps,
         robot: abs(&target.robot),
+        wrist_link: None,
         object: ObjectInfo {
             name: target
                 .object_name
