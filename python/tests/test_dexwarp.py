@@ -224,3 +224,14 @@ def test_bad_config_dict_and_keywords_raise_with_the_field_named(loaded):
     with pytest.raises(dexwarp.DexwarpError) as err:
         dexwarp.Config.load("scenes/no_such.json")
     assert err.value.path == "scenes/no_such.json" and "cannot read" in str(err.value)
+
+
+def test_augment_returns_the_stats_it_writes(tmp_path):
+    out = tmp_path / "aug"
+    stats = dexwarp.augment("scenes/demos/cube.demo.json", "scenes/variations/cube.json",
+                            count=2, seed=1, out=out, jobs=1)
+    assert stats["attempts"] == 2 and stats["ran"] + stats["rejected"] == 2
+    assert stats == json.loads((out / "stats.json").read_text())
+    with pytest.raises(dexwarp.DexwarpError, match="shard"):
+        dexwarp.augment("scenes/demos/cube.demo.json", "scenes/variations/cube.json",
+                        count=2, out=tmp_path / "x", shard="3/2")
