@@ -113,7 +113,16 @@ impl Inputs {
         let demo_path = demo
             .map(Path::to_path_buf)
             .unwrap_or_else(|| config.demo.clone());
-        let mut demo = Demo::load(&demo_path, limits)?;
+        let demo = Demo::load(&demo_path, limits)?;
+        Inputs::new(config, demo, limits)
+    }
+
+    /// The inputs of a config and a demonstration already in memory (the Python binding's
+    /// entry point; [`Inputs::load`] ends here too): loads the robot the demonstration names,
+    /// the config's scene and the object mesh, and checks them against each other. The
+    /// config's own `demo` is not read.
+    pub fn new(config: WarpConfig, mut demo: Demo, limits: &Limits) -> Result<Inputs> {
+        crate::model::demo::require_file(&config.source, "scene", &config.scene)?;
         let robot = demo.load_robot(limits)?;
         demo.check_robot(&robot)?;
         let scene = Scene::load(&config.scene, limits)?;
@@ -623,7 +632,26 @@ pub fn validate(
     params: &physics::Params,
     limits: &Limits,
 ) -> Result<(Report, Vec<FrameRow>)> {
-    let mut demo = Demo::load(demo_path, limits)?;
+    validate_demo(
+        Demo::load(demo_path, limits)?,
+        scene,
+        barriers,
+        params,
+        limits,
+    )
+}
+
+/// [`validate`] of a demonstration already in memory (the Python binding's entry point;
+/// [`validate`] ends here too); messages and the report's provenance name [`Demo::source`].
+pub fn validate_demo(
+    mut demo: Demo,
+    scene: Option<&Path>,
+    barriers: Option<&[String]>,
+    params: &physics::Params,
+    limits: &Limits,
+) -> Result<(Report, Vec<FrameRow>)> {
+    let source = demo.source.clone();
+    let demo_path = source.as_path();
     let robot = demo.load_robot(limits)?;
     demo.check_robot(&robot)?;
     let scene_path = match (scene, &demo.scene) {
