@@ -75,11 +75,13 @@ fn bar_chart(title: &str, bars: &[(String, u64)]) -> String {
     svg
 }
 
-/// A histogram of `values` in 20 bins.
-fn histogram(title: &str, x_label: &str, values: &[f64]) -> String {
+/// A histogram of the finite `values` in 20 bins, as inline SVG; `counted` names what is
+/// counted (the y axis, and the note when there is nothing). Also the `dexwarp report`
+/// page's.
+pub(crate) fn histogram(title: &str, x_label: &str, counted: &str, values: &[f64]) -> String {
     let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.is_empty() {
-        return format!("<p class=\"note\">{}: no kept samples</p>", escape(title));
+        return format!("<p class=\"note\">{}: no {counted}</p>", escape(title));
     }
     let (mut lo, mut hi) = v
         .iter()
@@ -111,7 +113,7 @@ fn histogram(title: &str, x_label: &str, values: &[f64]) -> String {
         let _ = chart
             .configure_mesh()
             .x_desc(x_label)
-            .y_desc("kept samples")
+            .y_desc(counted)
             .x_labels(5)
             .light_line_style(RGBColor(235, 235, 235))
             .draw();
@@ -181,7 +183,7 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
         let values: Vec<f64> = kept.iter().filter_map(|r| get(r)).collect();
         body.push_str(&format!(
             "<figure>{}</figure>\n",
-            histogram(title, x, &values)
+            histogram(title, x, "kept samples", &values)
         ));
     }
     body.push_str("</div>\n<h2>Samples</h2>\n");

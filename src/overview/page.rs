@@ -30,57 +30,6 @@ fn num(v: Option<f64>, digits: usize) -> String {
     }
 }
 
-/// A histogram of the finite `values` in 20 bins, as inline SVG.
-fn histogram(title: &str, values: &[f64]) -> String {
-    let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return format!("<p class=\"note\">{}: no values</p>", escape(title));
-    }
-    let (mut lo, mut hi) = v
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
-    if hi - lo < 1e-9 {
-        lo -= 0.5;
-        hi += 0.5;
-    }
-    const BINS: usize = 20;
-    let width = (hi - lo) / BINS as f64;
-    let mut counts = [0usize; BINS];
-    for x in &v {
-        counts[(((x - lo) / width) as usize).min(BINS - 1)] += 1;
-    }
-    let top = counts.iter().copied().max().unwrap_or(1).max(1) as f64;
-    let (w, h, left, bottom) = (340.0, 170.0, 34.0, 28.0);
-    let bw = (w - left - 6.0) / BINS as f64;
-    let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{}\" role=\"img\"><title>{}</title><text x=\"{left}\" y=\"14\" font-size=\"13\">{}</text>",
-        h + 22.0,
-        escape(title),
-        escape(title)
-    );
-    for (k, &c) in counts.iter().enumerate() {
-        let bh = (h - bottom - 20.0) * c as f64 / top;
-        s.push_str(&format!(
-            "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{bh:.1}\" fill=\"#1f77b4\"><title>{c}</title></rect>",
-            left + k as f64 * bw,
-            h - bottom - bh,
-            bw - 1.0
-        ));
-    }
-    s.push_str(&format!(
-        "<line x1=\"{left}\" y1=\"{y}\" x2=\"{x2}\" y2=\"{y}\" stroke=\"#555\"/><text x=\"{left}\" y=\"{t}\" font-size=\"11\">{}</text><text x=\"{x2}\" y=\"{t}\" font-size=\"11\" text-anchor=\"end\">{}</text><text x=\"{tx}\" y=\"{ty}\" font-size=\"11\" text-anchor=\"end\">{}</text><text x=\"{tx}\" y=\"{t}\" font-size=\"11\" text-anchor=\"end\">0</text></svg>",
-        num(Some(lo), 2),
-        num(Some(hi), 2),
-        top,
-        y = h - bottom,
-        x2 = w - 6.0,
-        t = h - bottom + 14.0,
-        tx = left - 4.0,
-        ty = 30.0,
-    ));
-    s
-}
-
 /// A reason with its numbers folded (`penetration 7.2 mm at frame 260` and
 /// `penetration 5.1 mm at frame 172` count as one kind).
 fn reason_kind(r: &str) -> String {
@@ -250,7 +199,9 @@ pub fn write_page(
         ),
         ("stage time [s]", col(|r| Some(seconds(r)))),
     ] {
-        body.push_str(&histogram(title, &values));
+        body.push_str(&crate::augment::page::histogram(
+            title, "", "items", &values,
+        ));
         body.push('\n');
     }
     body.push_str("</div>\n");
