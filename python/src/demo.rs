@@ -149,6 +149,7 @@ impl Demo {
             name,
             fps,
             robot: path_of(robot)?,
+            wrist_link: None,
             object: ObjectJson {
                 name: object_name.unwrap_or_else(|| {
                     mesh.file_stem()

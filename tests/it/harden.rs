@@ -854,3 +854,45 @@ fn a_write_that_fails_leaves_the_previous_set_whole() {
         "a staging folder or a partial file was left"
     );
 }
+
+/// Two runs writing into one folder at the same time: the folder ends with one run's whole
+/// set (every file the one its report was written with), never a mix of the two.
+#[test]
+fn concurrent_runs_into_one_folder_leave_one_whole_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = gripper_fixture(dir.path());
+    let out = dir.path().join("out");
+    for _round in 0..3 {
+        let spawn = |hand: &str| {
+            std::process::Command::new(env!("CARGO_BIN_EXE_dexwarp"))
+                .args([
+                    "warp",
+                    "--config",
+                    s(&config),
+                    "--out",
+                    s(&out),
+                    "--hand",
+                    hand,
+                ])
+                .output()
+        };
+        let (a, b) = std::thread::scope(|sc| {
+            let a = sc.spawn(|| spawn("baseline"));
+            let b = sc.spawn(|| spawn("contact"));
+            (a.join().unwrap().unwrap(), b.join().unwrap().unwrap())
+        });
+        assert!(a.status.success(), "{}", stderr(&a));
+        assert!(b.status.success(), "{}", stderr(&b));
+        let report_path = out.join("report.json");
+        let report: dexwarp::model::report::Report =
+            serde_json::from_slice(&std::fs::read(&report_path).unwrap()).unwrap();
+        dexwarp::output::set_is_complete(&report_path, &report)
+            .unwrap_or_else(|why| panic!("a mixed set: {why}"));
+        let names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains("dexwarp-tmp"))
+            .collect();
+        assert!(names.is_empty(), "staging left: {names:?}");
+    }
+}
