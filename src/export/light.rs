@@ -11,9 +11,8 @@ use std::path::Path;
 use serde::Deserialize;
 use serde::de::IgnoredAny;
 
-use crate::limits::FPS_RANGE_HZ;
 use crate::math::rotation::{quat_from_wxyz, quat_to_wxyz};
-use crate::model::demo::{DEMO_FORMAT, PoseJson};
+use crate::model::demo::PoseJson;
 use crate::{Error, Limits, Result};
 
 #[derive(Deserialize)]
@@ -100,36 +99,8 @@ fn pose(path: &Path, field: impl Fn() -> String, p: &PoseJson) -> Result<[f64; 7
 /// Parses and checks `bytes`, the demonstration file `path`.
 pub fn parse(path: &Path, bytes: &[u8], limits: &Limits) -> Result<LightDemo> {
     let file: LightFile = crate::model::json::parse_json(path, bytes)?;
-    if file.format != DEMO_FORMAT {
-        return Err(Error::invalid(
-            path,
-            "format",
-            format!("is {:?}; expected {DEMO_FORMAT:?}", file.format),
-        ));
-    }
-    crate::model::json::FieldCheck::new(path).in_range(
-        || "fps".into(),
-        file.fps,
-        FPS_RANGE_HZ,
-        "frames per second",
-    )?;
+    crate::model::demo::check_header(path, &file.format, file.fps, file.frames.len(), limits)?;
     let n = file.frames.len();
-    if n == 0 {
-        return Err(Error::invalid(
-            path,
-            "frames",
-            "is empty; expected at least one frame",
-        ));
-    }
-    if n as u64 > limits.max_frames {
-        return Err(Error::TooLarge {
-            path: path.to_path_buf(),
-            what: "the number of frames",
-            found: n as u64,
-            limit: limits.max_frames,
-            flag: "--max-frames",
-        });
-    }
     let mut frames = Vec::with_capacity(n);
     for (i, f) in file.frames.into_iter().enumerate() {
         if f.joints.len() != file.joint_names.len() {

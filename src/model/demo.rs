@@ -177,34 +177,8 @@ impl Demo {
     /// Validates a parsed file; `path` is used to resolve relative paths and in messages.
     pub fn from_file(file: DemoFile, path: &Path, limits: &Limits) -> Result<Demo> {
         let c = FieldCheck::new(path);
-        if file.format != DEMO_FORMAT {
-            return Err(Error::invalid(
-                path,
-                "format",
-                format!(
-                    "is {:?}; expected {DEMO_FORMAT:?} (is this a demonstration file?)",
-                    file.format
-                ),
-            ));
-        }
-        c.in_range(|| "fps".into(), file.fps, FPS_RANGE_HZ, "frames per second")?;
+        check_header(path, &file.format, file.fps, file.frames.len(), limits)?;
         let n = file.frames.len();
-        if n == 0 {
-            return Err(Error::invalid(
-                path,
-                "frames",
-                "is empty; expected at least one frame",
-            ));
-        }
-        if n as u64 > limits.max_frames {
-            return Err(Error::TooLarge {
-                path: path.to_path_buf(),
-                what: "the number of frames",
-                found: n as u64,
-                limit: limits.max_frames,
-                flag: "--max-frames",
-            });
-        }
         c.in_range(
             || "object.mass".into(),
             file.object.mass,
@@ -491,4 +465,40 @@ pub fn relative_path(base: &Path, target: &Path) -> PathBuf {
         out.push(c);
     }
     out
+}
+
+/// The checks every reader of a demonstration file makes before its frames: the format tag,
+/// the frame rate, and a frame count of at least one and within `--max-frames`.
+pub(crate) fn check_header(
+    path: &Path,
+    format: &str,
+    fps: f64,
+    frames: usize,
+    limits: &Limits,
+) -> Result<()> {
+    if format != DEMO_FORMAT {
+        return Err(Error::invalid(
+            path,
+            "format",
+            format!("is {format:?}; expected {DEMO_FORMAT:?} (is this a demonstration file?)"),
+        ));
+    }
+    FieldCheck::new(path).in_range(|| "fps".into(), fps, FPS_RANGE_HZ, "frames per second")?;
+    if frames == 0 {
+        return Err(Error::invalid(
+            path,
+            "frames",
+            "is empty; expected at least one frame",
+        ));
+    }
+    if frames as u64 > limits.max_frames {
+        return Err(Error::TooLarge {
+            path: path.to_path_buf(),
+            what: "the number of frames",
+            found: frames as u64,
+            limit: limits.max_frames,
+            flag: "--max-frames",
+        });
+    }
+    Ok(())
 }
