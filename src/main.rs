@@ -192,6 +192,16 @@ enum Command {
         /// less friction and more mass (report `physics.margin`, `physics.robust`).
         #[arg(long, conflicts_with = "no_physics")]
         margin: bool,
+        /// The hand in the physics replay: kinematic (on the trajectory, the default) or
+        /// actuated (joint motors capped at the URDF's effort limits, wrist on a stiff spring).
+        #[arg(
+            long,
+            value_enum,
+            value_name = "MODEL",
+            default_value = "kinematic",
+            conflicts_with = "no_physics"
+        )]
+        physics_hand: PhysicsHandArg,
     },
     /// Replay any demonstration, warped or original, in physics; write DIR/report.json and
     /// DIR/frames.csv.
@@ -213,6 +223,9 @@ enum Command {
         /// Also measure the robustness margin when physics passes (see `warp --margin`).
         #[arg(long)]
         margin: bool,
+        /// The hand in the physics replay (see `warp --physics-hand`).
+        #[arg(long, value_enum, value_name = "MODEL", default_value = "kinematic")]
+        physics_hand: PhysicsHandArg,
         /// Exit non-zero (status 3) when the physics verdict is fail.
         #[arg(long)]
         strict: bool,
@@ -432,6 +445,25 @@ enum Command {
 enum ExportFormat {
     /// LeRobot v3.0 (parquet and meta/), state only.
     Lerobot,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum PhysicsHandArg {
+    /// Every link kinematic, exactly on the trajectory (the grip comes from the fingers'
+    /// overlap with the object through the contact skin).
+    Kinematic,
+    /// Every link dynamic: joints driven by position motors capped at the URDF's
+    /// `<limit effort>`, the root link pulled to the trajectory by a stiff spring-damper.
+    Actuated,
+}
+
+impl From<PhysicsHandArg> for dexwarp::physics::HandModel {
+    fn from(h: PhysicsHandArg) -> Self {
+        match h {
+            PhysicsHandArg::Kinematic => dexwarp::physics::HandModel::Kinematic,
+            PhysicsHandArg::Actuated => dexwarp::physics::HandModel::Actuated,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -676,6 +708,7 @@ fn run(cli: Cli) -> Result<()> {
             penetration_weight,
             warm_start,
             margin,
+            physics_hand,
         } => {
             let inputs = Inputs::load(&config, demo.as_deref(), &limits)?;
             // Before any work: no output may replace an input of this run.
@@ -700,6 +733,7 @@ fn run(cli: Cli) -> Result<()> {
                 }),
                 physics: (!no_physics).then(|| dexwarp::physics::Params {
                     margin,
+                    hand: physics_hand.into(),
                     ..dexwarp::physics::Params::default()
                 }),
                 limits,
@@ -713,6 +747,7 @@ fn run(cli: Cli) -> Result<()> {
             scene,
             barriers,
             margin,
+            physics_hand,
             strict,
         } => {
             let (report, frames) = pipeline::validate(
@@ -721,6 +756,7 @@ fn run(cli: Cli) -> Result<()> {
                 (!barriers.is_empty()).then_some(barriers.as_slice()),
                 &dexwarp::physics::Params {
                     margin,
+                    hand: physics_hand.into(),
                     ..dexwarp::physics::Params::default()
                 },
                 &limits,

@@ -284,7 +284,7 @@ pub fn sim_displacement(
         Vector3::from(params.gravity),
     );
     for _ in 0..params.stability_steps {
-        world.drive_hand(link_poses);
+        world.drive_hand(link_poses, &[]);
         world.step();
     }
     let end = world.object_pose().translation.vector;

@@ -51,6 +51,20 @@
 //!   torsional friction; modelling it (a patch of solver contacts through a contact
 //!   modification hook) is the next step if such pinches must pass.
 //!
+//! # The actuated hand (an option)
+//!
+//! [`Params::hand`] = [`HandModel::Actuated`] (`--physics-hand actuated`) replaces the
+//! kinematic hand with an articulated one driven by its actuators (`actuated.rs`): dynamic
+//! links with the URDF masses, the URDF's joints and limits as one Rapier multibody, a
+//! position motor per movable joint capped at the URDF effort, the root link on a stiff
+//! spring-damper to the trajectory ([`Actuation`]). The kinematic hand answers "does the
+//! trajectory carry the object?"; the actuated one "would a position-controlled hand with
+//! these actuators hold it?". Fingers can no longer sink into the object: they stop at its
+//! surface (plus the skin) and press with the motor torque their tracking error gives, up
+//! to the effort limit. Penetration, tracking and drop checks are unchanged (the
+//! penetration checks still measure the trajectory's own poses); the stability test keeps
+//! the hand frozen. The default stays kinematic: the product's contract says so.
+//!
 //! # Where the time goes
 //!
 //! Profiled with `perf` on `warp --hand baseline` of teapot_pour_cups (release, 6,592
@@ -78,6 +92,7 @@
 //! `HashMap` into a result, and Rapier runs single-threaded, so the same input gives the
 //! same report, wall times aside.
 
+mod actuated;
 mod checks;
 pub mod margin;
 pub mod object;
@@ -94,7 +109,7 @@ use rayon::prelude::*;
 
 pub use margin::{Margin, margin};
 pub use object::{ObjectShape, ShapeMethod, object_shape};
-pub use params::{DecompositionParams, Params};
+pub use params::{Actuation, DecompositionParams, HandModel, Params};
 pub use report::{
     Drop, DropCause, Penetration, Penetrations, PerFrame, PhysicsReport, Release, ReplayInfo,
     Stability, Timing, Tracking,
@@ -192,15 +207,16 @@ pub fn validate(
     let n = replay::steps_per_frame(demo.fps, params.max_dt_s);
     let barrier_names: Vec<String> = solid.iter().map(|(n, _)| n.clone()).collect();
     let support_names: Vec<String> = supports.iter().map(|(n, _)| n.clone()).collect();
-    let ((trace, replay_s), (pen, penetration_s)) = rayon::join(
+    let (replay, (pen, penetration_s)) = rayon::join(
         || {
             let t_replay = Instant::now();
             let mut link_poses = robot.new_link_poses();
             let f0 = &demo.frames[0];
             robot.forward_kinematics(&f0.wrist, &f0.joints, &mut link_poses);
-            let mut world = ReplayWorld::new(
+            let mut world = ReplayWorld::with_hand_model(
                 robot,
                 &link_poses,
+                &f0.joints,
                 &object,
                 &f0.object,
                 demo.object.mass,
@@ -208,9 +224,9 @@ pub fn validate(
                 params,
                 1.0 / (n as f64 * demo.fps),
                 Vector3::from(params.gravity),
-            );
+            )?;
             let trace = replay::replay(robot, demo, &mut world, n);
-            (trace, t_replay.elapsed().as_secs_f64())
+            Ok::<_, Error>((trace, t_replay.elapsed().as_secs_f64()))
         },
         || {
             let t_pen = Instant::now();
@@ -228,6 +244,7 @@ pub fn validate(
             (pen, t_pen.elapsed().as_secs_f64())
         },
     );
+    let (trace, replay_s) = replay?;
     let PenetrationRun {
         penetration,
         per_ho,
@@ -327,6 +344,7 @@ pub fn validate(
             object_shape: Some(object.method),
             decomposition_cached: cached,
             diverged_frame: trace.diverged_at,
+            hand: params.hand,
         },
         margin: None,
         timing_s: Timing {

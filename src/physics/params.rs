@@ -35,6 +35,65 @@ impl Default for DecompositionParams {
     }
 }
 
+/// How the hand moves in the replay.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HandModel {
+    /// Every link a kinematic body on the trajectory exactly (default): the grip is the
+    /// contact solver resolving the fingers' overlap with the object, through the skin.
+    #[default]
+    Kinematic,
+    /// Every link a dynamic body of an articulated multibody: each joint driven toward the
+    /// trajectory by a position motor whose torque (force, for prismatic joints) is capped
+    /// at the URDF's `<limit effort>`, the hand's root link pulled toward the trajectory by
+    /// a stiff spring-damper ([`Actuation`]). Answers "would a position-controlled hand with
+    /// these actuators hold this?": fingers stop where the object stops them and grip with
+    /// what their motors give.
+    Actuated,
+}
+
+impl HandModel {
+    /// The name in reports and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            HandModel::Kinematic => "kinematic",
+            HandModel::Actuated => "actuated",
+        }
+    }
+}
+
+/// The actuated hand's controller ([`HandModel::Actuated`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Actuation {
+    /// Tracking error [rad, or m for prismatic joints] at which a joint's motor reaches its
+    /// effort limit; default 0.05. The motor is a PD controller on the joint value, stiffness
+    /// `effort / saturation_error` [N·m/rad], capped at the effort: a finger held 3° short of
+    /// its target by the object presses with full effort.
+    pub saturation_error: f64,
+    /// Motor damping as a time constant [s]: damping = stiffness × this; default 0.005.
+    pub damping_time_s: f64,
+    /// Natural frequency [Hz] of the spring-damper pulling the root link toward the
+    /// trajectory (a soft six-axis lock); default 20: a 1 kg load shifts it by about 0.6 mm.
+    pub wrist_frequency_hz: f64,
+    /// Damping ratio of that spring-damper; default 1 (critical).
+    pub wrist_damping_ratio: f64,
+    /// Mass [kg] of a link whose URDF gives none; default 0.01.
+    pub default_link_mass_kg: f64,
+}
+
+impl Default for Actuation {
+    fn default() -> Self {
+        Actuation {
+            saturation_error: 0.05,
+            damping_time_s: 0.005,
+            wrist_frequency_hz: 20.0,
+            wrist_damping_ratio: 1.0,
+            default_link_mass_kg: 0.01,
+        }
+    }
+}
+
 /// Parameters of [`super::validate`]. `Default` is the configuration the reports use.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -68,6 +127,10 @@ pub struct Params {
     pub finger_skin_m: f64,
     /// Convex decomposition of the object mesh.
     pub decomposition: DecompositionParams,
+    /// How the hand moves: kinematic on the trajectory (default) or actuated.
+    pub hand: HandModel,
+    /// The actuated hand's controller (used with [`HandModel::Actuated`] only).
+    pub actuation: Actuation,
 
     /// Largest mean object position error over all frames [m]; default 0.02.
     pub max_mean_position_error_m: f64,
@@ -129,6 +192,8 @@ impl Default for Params {
             object_friction: 0.6,
             finger_skin_m: 0.003,
             decomposition: DecompositionParams::default(),
+            hand: HandModel::Kinematic,
+            actuation: Actuation::default(),
             max_mean_position_error_m: 0.02,
             max_position_error_m: 0.05,
             max_mean_rotation_error_deg: 15.0,
@@ -211,6 +276,20 @@ impl Params {
             ("rest_motion_m", self.rest_motion_m),
         ] {
             positive(field, v)?;
+        }
+        let a = &self.actuation;
+        for (field, v) in [
+            ("actuation.saturation_error", a.saturation_error),
+            ("actuation.wrist_frequency_hz", a.wrist_frequency_hz),
+            ("actuation.default_link_mass_kg", a.default_link_mass_kg),
+        ] {
+            positive(field, v)?;
+        }
+        for (field, v) in [
+            ("actuation.damping_time_s", a.damping_time_s),
+            ("actuation.wrist_damping_ratio", a.wrist_damping_ratio),
+        ] {
+            non_negative(field, v)?;
         }
         if self.gravity.iter().any(|g| !g.is_finite()) {
             return Err(Error::invalid(

@@ -87,7 +87,7 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
         let (a, b) = (&frames[i - 1], &frames[i]);
         for k in 1..=n {
             hand_between(robot, a, b, k as f64 / n as f64, &mut q, &mut link_poses);
-            world.drive_hand(&link_poses);
+            world.drive_hand(&link_poses, &q);
             world.step();
             trace.steps += 1;
         }

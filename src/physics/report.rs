@@ -125,6 +125,9 @@ pub struct ReplayInfo {
     pub decomposition_cached: bool,
     /// First frame whose simulated object pose was not finite.
     pub diverged_frame: Option<usize>,
+    /// The hand model of the replay (reports before it existed read as kinematic).
+    #[serde(default)]
+    pub hand: super::params::HandModel,
 }
 
 /// Wall times [s] (the only fields that differ between two runs on the same input).

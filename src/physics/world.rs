@@ -27,8 +27,10 @@ use rapier3d_f64::prelude::{
     RigidBodyBuilder, RigidBodyHandle,
 };
 
+use super::actuated::ActuatedHand;
 use super::object::ObjectShape;
-use super::params::Params;
+use super::params::{HandModel, Params};
+use crate::Result;
 use crate::math::convert::{from_pose, to_pose, to_vec};
 use crate::robot::{CollisionShape, Robot};
 
@@ -62,11 +64,20 @@ struct HandBody {
     body: RigidBodyHandle,
 }
 
+/// How the hand's bodies follow the trajectory.
+#[derive(Debug)]
+enum HandDrive {
+    /// One kinematic body per link with collision geometry.
+    Kinematic(Vec<HandBody>),
+    /// The articulated, motor-driven hand ([`super::actuated`]).
+    Actuated(ActuatedHand),
+}
+
 /// The replay world (see the module docs).
 pub struct ReplayWorld {
     /// All Rapier state (public for tests and diagnostics).
     pub world: PhysicsWorld,
-    hand: Vec<HandBody>,
+    hand: HandDrive,
     /// The object's body.
     pub object: RigidBodyHandle,
     /// The object's collider.
@@ -83,8 +94,8 @@ impl std::fmt::Debug for ReplayWorld {
 }
 
 impl ReplayWorld {
-    /// A world with the hand at `link_poses`, the object at `object_pose` and the fixed
-    /// items, stepping by `dt` seconds with gravity `gravity` [m/s²].
+    /// A world with the kinematic hand at `link_poses`, the object at `object_pose` and the
+    /// fixed items, stepping by `dt` seconds with gravity `gravity` [m/s²].
     pub fn new(
         robot: &Robot,
         link_poses: &[Isometry3<f64>],
@@ -96,16 +107,7 @@ impl ReplayWorld {
         dt: f64,
         gravity: Vector3<f64>,
     ) -> ReplayWorld {
-        let mut world = PhysicsWorld {
-            gravity: to_vec(&gravity),
-            integration_parameters: IntegrationParameters {
-                dt,
-                num_solver_iterations: params.solver_iterations,
-                contact_recycling: params.contact_recycling,
-                ..IntegrationParameters::default()
-            },
-            ..PhysicsWorld::default()
-        };
+        let mut world = empty_world(params, dt, gravity);
         let mut hand = Vec::new();
         for (i, link) in robot.links().iter().enumerate() {
             if link.collision.is_empty() {
@@ -115,49 +117,92 @@ impl ReplayWorld {
                 RigidBodyBuilder::kinematic_position_based().pose(to_pose(&link_poses[i])),
             );
             for cs in &link.collision {
-                let collider = ColliderBuilder::new(cs.shape.clone())
-                    .position(to_pose(&cs.shape_pose))
-                    .friction(params.hand_friction)
-                    .friction_combine_rule(CoefficientCombineRule::Max)
-                    .contact_skin(params.finger_skin_m)
-                    .user_data(Tag::Hand as u128);
-                world.insert_collider(collider, Some(body));
+                world.insert_collider(hand_collider(cs, params), Some(body));
             }
             hand.push(HandBody { link: i, body });
         }
-        let (object_body, object_collider) = world.insert(
-            RigidBodyBuilder::dynamic()
-                .pose(to_pose(object_pose))
-                .can_sleep(false),
-            ColliderBuilder::new(object.compound.clone())
-                .mass(mass)
-                .friction(params.object_friction)
-                .user_data(Tag::Object as u128),
-        );
-        for item in fixed {
-            world.insert(
-                RigidBodyBuilder::fixed(),
-                ColliderBuilder::new(item.shape.shape.clone())
-                    .position(to_pose(&item.shape.shape_pose))
-                    .friction(params.object_friction)
-                    .user_data(item.tag as u128),
-            );
-        }
-        ReplayWorld {
+        with_object_and_scene(
             world,
-            hand,
-            object: object_body,
-            object_collider,
+            HandDrive::Kinematic(hand),
+            object,
+            object_pose,
+            mass,
+            fixed,
+            params,
+        )
+    }
+
+    /// A world like [`ReplayWorld::new`] with the hand model `params.hand`: the actuated
+    /// hand starts at joint values `q0` (whose forward kinematics are `link_poses`).
+    ///
+    /// Fails only when the actuated hand lacks what it needs (an effort limit).
+    pub fn with_hand_model(
+        robot: &Robot,
+        link_poses: &[Isometry3<f64>],
+        q0: &[f64],
+        object: &ObjectShape,
+        object_pose: &Isometry3<f64>,
+        mass: f64,
+        fixed: &[FixedItem<'_>],
+        params: &Params,
+        dt: f64,
+        gravity: Vector3<f64>,
+    ) -> Result<ReplayWorld> {
+        match params.hand {
+            HandModel::Kinematic => Ok(ReplayWorld::new(
+                robot,
+                link_poses,
+                object,
+                object_pose,
+                mass,
+                fixed,
+                params,
+                dt,
+                gravity,
+            )),
+            HandModel::Actuated => {
+                super::actuated::check_robot(robot)?;
+                let mut world = empty_world(params, dt, gravity);
+                let hand = ActuatedHand::build(&mut world, robot, link_poses, q0, params, |cs| {
+                    hand_collider(cs, params)
+                });
+                Ok(with_object_and_scene(
+                    world,
+                    HandDrive::Actuated(hand),
+                    object,
+                    object_pose,
+                    mass,
+                    fixed,
+                    params,
+                ))
+            }
         }
     }
 
-    /// Sets the pose every hand link reaches at the end of the next step.
-    pub fn drive_hand(&mut self, link_poses: &[Isometry3<f64>]) {
-        for h in &self.hand {
-            if let Some(b) = self.world.bodies.get_mut(h.body) {
-                b.set_next_kinematic_position(to_pose(&link_poses[h.link]));
+    /// Sets the trajectory's hand for the end of the next step: link poses `link_poses`,
+    /// from joint values `q`. The kinematic hand's links reach them; the actuated hand's
+    /// anchor and motor targets move there.
+    pub fn drive_hand(&mut self, link_poses: &[Isometry3<f64>], q: &[f64]) {
+        match &self.hand {
+            HandDrive::Kinematic(hand) => {
+                for h in hand {
+                    if let Some(b) = self.world.bodies.get_mut(h.body) {
+                        b.set_next_kinematic_position(to_pose(&link_poses[h.link]));
+                    }
+                }
             }
+            HandDrive::Actuated(hand) => hand.drive(&mut self.world, link_poses, q),
         }
+    }
+
+    /// The simulated world pose of the hand's link `link` (index into the robot's links);
+    /// `None` for a link without a body (the kinematic hand's links without collision).
+    pub fn hand_link_pose(&self, link: usize) -> Option<Isometry3<f64>> {
+        let body = match &self.hand {
+            HandDrive::Kinematic(hand) => hand.iter().find(|h| h.link == link)?.body,
+            HandDrive::Actuated(hand) => *hand.bodies.get(link)?,
+        };
+        Some(from_pose(self.world.bodies.get(body)?.position()))
     }
 
     /// Advances the simulation by one step.
@@ -173,5 +218,64 @@ impl ReplayWorld {
     /// The object's linear speed [m/s].
     pub fn object_speed(&self) -> f64 {
         self.world.bodies[self.object].linvel().length()
+    }
+}
+
+fn empty_world(params: &Params, dt: f64, gravity: Vector3<f64>) -> PhysicsWorld {
+    PhysicsWorld {
+        gravity: to_vec(&gravity),
+        integration_parameters: IntegrationParameters {
+            dt,
+            num_solver_iterations: params.solver_iterations,
+            contact_recycling: params.contact_recycling,
+            ..IntegrationParameters::default()
+        },
+        ..PhysicsWorld::default()
+    }
+}
+
+/// A hand collider: the link's shape with the hand friction and the finger skin.
+fn hand_collider(cs: &CollisionShape, params: &Params) -> ColliderBuilder {
+    ColliderBuilder::new(cs.shape.clone())
+        .position(to_pose(&cs.shape_pose))
+        .friction(params.hand_friction)
+        .friction_combine_rule(CoefficientCombineRule::Max)
+        .contact_skin(params.finger_skin_m)
+        .user_data(Tag::Hand as u128)
+}
+
+/// Adds the dynamic object and the fixed items to a world holding the hand.
+fn with_object_and_scene(
+    mut world: PhysicsWorld,
+    hand: HandDrive,
+    object: &ObjectShape,
+    object_pose: &Isometry3<f64>,
+    mass: f64,
+    fixed: &[FixedItem<'_>],
+    params: &Params,
+) -> ReplayWorld {
+    let (object_body, object_collider) = world.insert(
+        RigidBodyBuilder::dynamic()
+            .pose(to_pose(object_pose))
+            .can_sleep(false),
+        ColliderBuilder::new(object.compound.clone())
+            .mass(mass)
+            .friction(params.object_friction)
+            .user_data(Tag::Object as u128),
+    );
+    for item in fixed {
+        world.insert(
+            RigidBodyBuilder::fixed(),
+            ColliderBuilder::new(item.shape.shape.clone())
+                .position(to_pose(&item.shape.shape_pose))
+                .friction(params.object_friction)
+                .user_data(item.tag as u128),
+        );
+    }
+    ReplayWorld {
+        world,
+        hand,
+        object: object_body,
+        object_collider,
     }
 }

@@ -61,6 +61,9 @@ pub struct Link {
     pub surface_normals: Vec<Vector3<f64>>,
     /// Penetration probes of the collision geometry (see [`super::probes`]).
     pub probes: super::probes::Probes,
+    /// URDF `<inertial><mass>` [kg]; 0 when the link has none. Only the actuated hand of the
+    /// physics stage uses it.
+    pub mass: f64,
 }
 
 /// How a joint moves its child relative to its parent.
@@ -133,6 +136,9 @@ pub struct Joint {
     pub dof: Option<usize>,
     /// The joint named in the URDF `<mimic joint=..>` element (before chains were resolved).
     pub mimic_source: Option<String>,
+    /// URDF `<limit effort>`: the largest torque [N·m] or force [N] the joint's actuator
+    /// gives; 0 when absent. Only the actuated hand of the physics stage uses it.
+    pub effort: f64,
 }
 
 impl Joint {

@@ -536,6 +536,17 @@ impl Loader<'_> {
             }
             _ => None,
         };
+        let effort = if kind.is_movable() {
+            j.limit.effort
+        } else {
+            0.0
+        };
+        if !(effort.is_finite() && effort >= 0.0) {
+            return Err(self.invalid(
+                format!("{field} <limit>"),
+                format!("effort {effort} is not a finite value >= 0"),
+            ));
+        }
         Ok(Joint {
             name: j.name.clone(),
             kind,
@@ -547,6 +558,7 @@ impl Loader<'_> {
             mimic: None,
             dof: None,
             mimic_source: j.mimic.as_ref().map(|m| m.joint.clone()),
+            effort,
         })
     }
 
@@ -625,6 +637,13 @@ impl Loader<'_> {
     fn links(&mut self, urdf: &urdf_rs::Robot, tree: &Tree, new_id: &[usize]) -> Result<Vec<Link>> {
         let mut links = Vec::with_capacity(urdf.links.len());
         for (i, l) in urdf.links.iter().enumerate() {
+            let mass = l.inertial.mass.value;
+            if !(mass.is_finite() && mass >= 0.0) {
+                return Err(self.invalid(
+                    format!("link '{}' <inertial><mass>", l.name),
+                    format!("value {mass} is not a finite mass >= 0 [kg]"),
+                ));
+            }
             let mut collision = Vec::with_capacity(l.collision.len());
             for (k, c) in l.collision.iter().enumerate() {
                 let field = format!("link '{}' collision[{k}]", l.name);
@@ -637,6 +656,7 @@ impl Loader<'_> {
                 surface_points: Vec::new(),
                 surface_normals: Vec::new(),
                 probes: Default::default(),
+                mass,
             });
         }
         Ok(links)

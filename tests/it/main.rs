@@ -1,4 +1,5 @@
 //! All integration tests in one binary (one link step on a 2-core machine).
+mod actuated;
 mod augment;
 mod cli;
 mod export;

@@ -126,7 +126,7 @@ fn squeeze_lift(overlap: f64, params: &Params) -> f64 {
     for k in 1..=lift + hold {
         let z = 0.03 + 0.2 * smoothstep(k as f64 / lift as f64);
         robot.forward_kinematics(&at(0.0, 0.0, z), &[], &mut poses);
-        world.drive_hand(&poses);
+        world.drive_hand(&poses, &[]);
         world.step();
     }
     (world.object_pose().translation.vector - Vector3::new(0.0, 0.0, 0.23)).norm()
@@ -208,7 +208,7 @@ fn a_free_cube_falls_as_half_g_t_squared_until_it_hits_the_table() {
     let mut worst: f64 = 0.0;
     let mut k = 0;
     while (k + 1) as f64 * dt < t_hit - 0.02 {
-        world.drive_hand(&poses);
+        world.drive_hand(&poses, &[]);
         world.step();
         k += 1;
         let t = k as f64 * dt;
@@ -233,7 +233,7 @@ fn a_free_cube_falls_as_half_g_t_squared_until_it_hits_the_table() {
     );
     // Then it hits the table and stops there.
     for _ in 0..480 {
-        world.drive_hand(&poses);
+        world.drive_hand(&poses, &[]);
         world.step();
     }
     let z = world.object_pose().translation.z;
@@ -249,7 +249,7 @@ fn a_released_cube_comes_to_rest_on_its_support() {
     let params = Params::default();
     let (mut world, _robot, poses) = lone_cube(0.08, &params);
     for _ in 0..360 {
-        world.drive_hand(&poses);
+        world.drive_hand(&poses, &[]);
         world.step();
     }
     let pose = world.object_pose();
