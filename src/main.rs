@@ -657,6 +657,9 @@ fn run(cli: Cli) -> Result<()> {
                 syn.stats.contacts_per_frame,
                 syn.stats.d_c_mm
             );
+            if let Some(w) = &syn.demo.wrist_link {
+                eprintln!("wrist link: {w} (the links above it are left out)");
+            }
             Ok(())
         }
         Command::Robot { urdf, wrist_link } => {

@@ -11,6 +11,7 @@ mod kinematics;
 mod margin;
 mod model;
 mod nonpen;
+mod paths;
 mod one_verdict;
 mod physics;
 mod physics_regression;
