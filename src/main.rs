@@ -136,7 +136,8 @@ enum Command {
         /// Fingertip links, comma-separated (default: our hands' templates, else the leaf links).
         #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
         tips: Option<Vec<String>>,
-        /// The link whose pose is the wrist (default: the URDF root); links above it are dropped.
+        /// The link whose pose is the wrist (default: the fingertips' common link, moved up
+        /// through fixed joints); links above it are dropped.
         #[arg(long, value_name = "LINK")]
         wrist_link: Option<String>,
     },

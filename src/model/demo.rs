@@ -476,7 +476,10 @@ fn absolute(p: &Path) -> PathBuf {
     let mut rest = Vec::new();
     loop {
         if let Ok(c) = std::fs::canonicalize(existing) {
-            return rest.iter().rev().fold(c, |acc: PathBuf, part| acc.join(part));
+            return rest
+                .iter()
+                .rev()
+                .fold(c, |acc: PathBuf, part| acc.join(part));
         }
         match (existing.parent(), existing.file_name()) {
             (Some(parent), Some(name)) => {

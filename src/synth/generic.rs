@@ -22,6 +22,13 @@
 //!    along the finger's closing motion (plus a third of the way along the finger), with
 //!    the pad centre [`PAD_RADIUS_M`] inside along the surface normal.
 //!
+//! A prismatic joint's closing sign is instead the side that moves its finger toward the
+//! other fingers (a jaw's range does not say which end is closed), and the pad is taken
+//! among the surface points that face the closing motion. When the thumb closes against
+//! the others' motion (jaws), the fingers' direction is the mean of all of them and the
+//! palm normal is `f × (tip₀ − tip₁)`. [`wrist_link`] finds the palm link of a hand that
+//! comes with its forearm; [`tripod`] keeps the thumb and the two fingers it opposes.
+//!
 //! [`template`] turns a layout into a [`GraspTemplate`] for an object, as the named
 //! templates are made: palm down over the object, fingers along object `+x`; the thumb's pad
 //! on the near side (`−x`), the opposing fingers' pads on the far side (`+x`), spread along
