@@ -104,13 +104,20 @@ pub fn closing_signs(robot: &Robot, q_ref: &[f64]) -> Vec<f64> {
 /// The link that should carry the wrist pose when none is given: the deepest common
 /// ancestor of the fingertips (the `tips` links, else every leaf link moved by a joint),
 /// moved up through fixed joints (links rigidly attached to it are the palm's). `None` when
-/// that is the root; otherwise the links above it (a forearm and its wrist joints) do not
-/// belong in a grasp.
+/// that is the root or fewer than two fingertips are known; otherwise the links above it
+/// (a forearm and its wrist joints) do not belong in a grasp.
 pub fn wrist_link(robot: &Robot, tips: Option<&[String]>) -> Option<String> {
+    // A name the robot lacks is the layout's error to report; one tip is no hand.
     let ids: Vec<LinkId> = match tips {
-        Some(names) => names.iter().filter_map(|n| robot.link_id(n)).collect(),
+        Some(names) => names
+            .iter()
+            .map(|n| robot.link_id(n))
+            .collect::<Option<_>>()?,
         None => leaf_tips(robot),
     };
+    if ids.len() < 2 {
+        return None;
+    }
     let ancestors = |l: LinkId| {
         let mut out = vec![l];
         let mut cur = l;
