@@ -244,11 +244,11 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
     // Without --wrist-link, the wrist is the fingers' common palm link (a forearm above it
     // and its joints are left out).
     let mut wrist_link = req.wrist_link.clone();
-    if wrist_link.is_none() {
-        if let Some(w) = super::generic::wrist_link(&robot, req.tips.as_deref()) {
-            robot = Robot::from_urdf_file_at(&req.robot, limits, Some(&w))?;
-            wrist_link = Some(w);
-        }
+    if wrist_link.is_none()
+        && let Some(w) = super::generic::wrist_link(&robot, req.tips.as_deref())
+    {
+        robot = Robot::from_urdf_file_at(&req.robot, limits, Some(&w))?;
+        wrist_link = Some(w);
     }
     let name = req
         .out
