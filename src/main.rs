@@ -136,7 +136,8 @@ enum Command {
         /// Fingertip links, comma-separated (default: our hands' templates, else the leaf links).
         #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
         tips: Option<Vec<String>>,
-        /// The link whose pose is the wrist (default: the URDF root); links above it are dropped.
+        /// The link whose pose is the wrist (default: the fingertips' common link, moved up
+        /// through fixed joints); links above it are dropped.
         #[arg(long, value_name = "LINK")]
         wrist_link: Option<String>,
     },
@@ -689,6 +690,9 @@ fn run(cli: Cli) -> Result<()> {
                 syn.stats.contacts_per_frame,
                 syn.stats.d_c_mm
             );
+            if let Some(w) = &syn.demo.wrist_link {
+                eprintln!("wrist link: {w} (the links above it are left out)");
+            }
             Ok(())
         }
         Command::Robot { urdf, wrist_link } => {

@@ -447,15 +447,15 @@ pub(crate) fn require_file(path: &Path, field: &str, target: &Path) -> Result<()
     }
 }
 
-/// `target` relative to `base` when both share a prefix; otherwise `target` unchanged.
+/// `target` relative to `base` when both share a prefix, otherwise `target` as an absolute
+/// path; either may be relative to the working directory, and `base` need not exist yet.
 pub fn relative_path(base: &Path, target: &Path) -> PathBuf {
-    let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
-    let (base, target_abs) = (abs(base), abs(target));
+    let (base, target_abs) = (absolute(base), absolute(target));
     let b: Vec<_> = base.components().collect();
     let t: Vec<_> = target_abs.components().collect();
     let common = b.iter().zip(&t).take_while(|(x, y)| x == y).count();
     if common == 0 {
-        return target.to_path_buf();
+        return target_abs;
     }
     let mut out = PathBuf::new();
     for _ in common..b.len() {
@@ -465,6 +465,30 @@ pub fn relative_path(base: &Path, target: &Path) -> PathBuf {
         out.push(c);
     }
     out
+}
+
+/// `p` as an absolute path with symbolic links resolved, also when it does not exist yet
+/// (an output folder): its deepest existing ancestor is resolved and the rest appended. A
+/// path relative to the working directory is taken from it.
+fn absolute(p: &Path) -> PathBuf {
+    let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    let mut existing = abs.as_path();
+    let mut rest = Vec::new();
+    loop {
+        if let Ok(c) = std::fs::canonicalize(existing) {
+            return rest
+                .iter()
+                .rev()
+                .fold(c, |acc: PathBuf, part| acc.join(part));
+        }
+        match (existing.parent(), existing.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                existing = parent;
+            }
+            _ => return abs,
+        }
+    }
 }
 
 /// The checks every reader of a demonstration file makes before its frames: the format tag,

@@ -240,7 +240,16 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
         .map_err(|e: super::motion::UnknownMotion| {
             Error::invalid(cli, "--motion", e.to_string())
         })?;
-    let robot = Robot::from_urdf_file_at(&req.robot, limits, req.wrist_link.as_deref())?;
+    let mut robot = Robot::from_urdf_file_at(&req.robot, limits, req.wrist_link.as_deref())?;
+    // Without --wrist-link, the wrist is the fingers' common palm link (a forearm above it
+    // and its joints are left out).
+    let mut wrist_link = req.wrist_link.clone();
+    if wrist_link.is_none()
+        && let Some(w) = super::generic::wrist_link(&robot, req.tips.as_deref())
+    {
+        robot = Robot::from_urdf_file_at(&req.robot, limits, Some(&w))?;
+        wrist_link = Some(w);
+    }
     let name = req
         .out
         .file_name()
@@ -262,7 +271,7 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
         spec.contacts.noise_mm = n;
     }
     spec.tips = req.tips.clone();
-    spec.wrist_link = req.wrist_link.clone();
+    spec.wrist_link = wrist_link;
     let dir = req
         .out
         .parent()

@@ -205,17 +205,20 @@ pub fn synthesize(
     let geo = ObjectGeometry::new(mesh.clone())
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
     // Our hands have named templates for the objects they were made with; any other hand,
-    // object or `--tips` gets its grasp from the hand's kinematics.
+    // object or `--tips` gets its grasp from the hand's kinematics (so does a hand whose
+    // link names match ours but whose named grasp fails). When the grasp of every finger is
+    // out of reach, the thumb and the two fingers it opposes try alone.
     let named = HandFamily::detect(robot)
         .filter(|_| spec.tips.is_none())
         .and_then(|family| templates::template(family, object));
-    let template = match named {
-        Some(t) => t,
-        None => {
-            let layout = super::generic::layout(robot, spec.tips.as_deref())
-                .map_err(|e| fail("(robot)", format!("robot {:?}: {e}", robot.name)))?;
-            super::generic::template(robot, &layout, &geo)
+    let generic = || -> Result<Vec<GraspTemplate>> {
+        let layout = super::generic::layout(robot, spec.tips.as_deref())
+            .map_err(|e| fail("(robot)", format!("robot {:?}: {e}", robot.name)))?;
+        let mut out = vec![super::generic::template(robot, &layout, &geo)];
+        if let Some(tripod) = super::generic::tripod(&layout) {
+            out.push(super::generic::template(robot, &tripod, &geo));
         }
+        Ok(out)
     };
     let shape = object_shape(&mesh, mesh_path)
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
@@ -238,16 +241,42 @@ pub fn synthesize(
     )
     .expect("a box is a valid shape");
 
-    let g = grasp::solve(
-        robot,
-        &template,
-        &geo,
-        &shape,
-        &start,
-        std::slice::from_ref(&table),
-        &spec.grasp,
-    )
-    .map_err(|e| {
+    let mut queue: Vec<GraspTemplate> = named.into_iter().collect();
+    let mut generic_queued = false;
+    let mut first_err = None;
+    let mut k = 0;
+    let solved = loop {
+        if k == queue.len() {
+            if generic_queued {
+                break None;
+            }
+            generic_queued = true;
+            match generic() {
+                Ok(ts) => queue.extend(ts),
+                Err(e) if first_err.is_none() => return Err(e),
+                Err(_) => break None,
+            }
+            continue;
+        }
+        let template = queue[k].clone();
+        k += 1;
+        match grasp::solve(
+            robot,
+            &template,
+            &geo,
+            &shape,
+            &start,
+            std::slice::from_ref(&table),
+            &spec.grasp,
+        ) {
+            Ok(g) => break Some((template, g)),
+            Err(e) => {
+                first_err.get_or_insert(e);
+            }
+        }
+    };
+    let (template, g) = solved.ok_or_else(|| {
+        let e = first_err.expect("a failed solve left its error");
         fail(
             "(grasp)",
             format!(

@@ -22,6 +22,13 @@
 //!    along the finger's closing motion (plus a third of the way along the finger), with
 //!    the pad centre [`PAD_RADIUS_M`] inside along the surface normal.
 //!
+//! A prismatic joint's closing sign is instead the side that moves its finger toward the
+//! other fingers (a jaw's range does not say which end is closed), and the pad is taken
+//! among the surface points that face the closing motion. When the thumb closes against
+//! the others' motion (jaws), the fingers' direction is the mean of all of them and the
+//! palm normal is `f × (tip₀ − tip₁)`. [`wrist_link`] finds the palm link of a hand that
+//! comes with its forearm; [`tripod`] keeps the thumb and the two fingers it opposes.
+//!
 //! [`template`] turns a layout into a [`GraspTemplate`] for an object, as the named
 //! templates are made: palm down over the object, fingers along object `+x`; the thumb's pad
 //! on the near side (`−x`), the opposing fingers' pads on the far side (`+x`), spread along
@@ -94,14 +101,65 @@ pub fn closing_signs(robot: &Robot, q_ref: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The fingers, thumb and palm frame of `robot` (see the module docs). `tips` names the
-/// fingertip links; `None` finds them from the tree. The error says what is missing and
-/// how to give it.
-pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, String> {
+/// The link that should carry the wrist pose when none is given: the deepest common
+/// ancestor of the fingertips (the `tips` links, else every leaf link moved by a joint),
+/// moved up through fixed joints (links rigidly attached to it are the palm's). `None` when
+/// that is the root or fewer than two fingertips are known; otherwise the links above it
+/// (a forearm and its wrist joints) do not belong in a grasp.
+pub fn wrist_link(robot: &Robot, tips: Option<&[String]>) -> Option<String> {
+    // A name the robot lacks is the layout's error to report; one tip is no hand.
+    let ids: Vec<LinkId> = match tips {
+        Some(names) => names
+            .iter()
+            .map(|n| robot.link_id(n))
+            .collect::<Option<_>>()?,
+        None => leaf_tips(robot),
+    };
+    if ids.len() < 2 {
+        return None;
+    }
+    let ancestors = |l: LinkId| {
+        let mut out = vec![l];
+        let mut cur = l;
+        while let Some(j) = robot.link(cur).parent_joint {
+            cur = robot.joint(j).parent;
+            out.push(cur);
+        }
+        out.reverse();
+        out
+    };
+    let mut common = ancestors(*ids.first()?);
+    for &t in &ids[1..] {
+        let a = ancestors(t);
+        let n = common.iter().zip(&a).take_while(|(x, y)| x == y).count();
+        common.truncate(n);
+    }
+    let mut wrist = *common.last()?;
+    while let Some(j) = robot.link(wrist).parent_joint {
+        if robot.joint(j).kind.is_movable() {
+            break;
+        }
+        wrist = robot.joint(j).parent;
+    }
+    (wrist != robot.root()).then(|| robot.link(wrist).name.clone())
+}
+
+/// Leaf links (no child joint) with at least one movable joint above them.
+fn leaf_tips(robot: &Robot) -> Vec<LinkId> {
     let mut has_child = vec![false; robot.link_count()];
     for j in robot.joints() {
         has_child[j.parent.index()] = true;
     }
+    (0..robot.link_count())
+        .map(|i| LinkId(i as u32))
+        .filter(|&l| !has_child[l.index()] && !robot.chain(l).is_empty())
+        .collect()
+}
+
+/// The fingers, thumb and palm frame of `robot` (see the module docs). `tips` names the
+/// fingertip links; `None` finds them from the tree. The error says what is missing and
+/// how to give it.
+pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, String> {
     let movable = |l: LinkId| !robot.chain(l).is_empty();
     let tip_ids: Vec<LinkId> = match tips {
         Some(names) => names
@@ -117,10 +175,7 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
                 }
             })
             .collect::<Result<_, String>>()?,
-        None => (0..robot.link_count())
-            .map(|i| LinkId(i as u32))
-            .filter(|&l| !has_child[l.index()] && movable(l))
-            .collect(),
+        None => leaf_tips(robot),
     };
     if tip_ids.len() < 2 {
         return Err(format!(
@@ -133,7 +188,7 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
         robot.clamp(&mut q);
         q
     };
-    let signs = closing_signs(robot, &q_ref);
+    let mut signs = closing_signs(robot, &q_ref);
     let mut poses = robot.new_link_poses();
     robot.forward_kinematics(&Isometry3::identity(), &q_ref, &mut poses);
     let mut jac = vec![Vector3::zeros(); WRIST_DOF + robot.dof()];
@@ -141,7 +196,8 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
         spacing: 0.003,
         max_per_shape: 4000,
     };
-    let mut fingers = Vec::new();
+    // Per fingertip: its distal link and that link's surface samples (link frame).
+    let mut found = Vec::with_capacity(tip_ids.len());
     for &tip in &tip_ids {
         let mut distal = tip;
         while robot.link(distal).collision.is_empty() {
@@ -156,13 +212,52 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
                 robot.link(tip).name
             ));
         }
-        let first = robot.chain(tip)[0];
-        let base = Point3::from(poses[robot.joint(first).child.index()].translation.vector);
-        let dpose = poses[distal.index()];
         let (mut pts, mut normals) = (Vec::new(), Vec::new());
         for s in &robot.link(distal).collision {
             s.sample_surface(&fine, &mut pts, &mut normals);
         }
+        if pts.is_empty() {
+            return Err(format!("link {:?} has no surface", robot.link(distal).name));
+        }
+        found.push((tip, distal, pts, normals));
+    }
+    // A prismatic joint closes toward the other fingers (a jaw's range says nothing about
+    // which end is closed): the sign of its motion of the distal link's surface centroid
+    // toward the centroid of the other fingers' ones.
+    let centres: Vec<Point3<f64>> = found
+        .iter()
+        .map(|(_, distal, pts, _)| {
+            let sum: Vector3<f64> = pts.iter().map(|p| (poses[distal.index()] * p).coords).sum();
+            Point3::from(sum / pts.len() as f64)
+        })
+        .collect();
+    for (k, (tip, ..)) in found.iter().enumerate() {
+        let others: Vector3<f64> = centres
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| i != k)
+            .map(|(_, c)| c.coords)
+            .sum::<Vector3<f64>>()
+            / (centres.len() - 1) as f64;
+        robot.world_point_jacobian(&poses, *tip, &centres[k], &mut jac);
+        for &j in robot.chain(*tip) {
+            let joint = robot.joint(j);
+            let Some(i) = joint.dof.or(joint.mimic.map(|m| m.driver)) else {
+                continue;
+            };
+            if joint.kind == JointKind::Prismatic {
+                let g = jac[WRIST_DOF + i].dot(&(others - centres[k].coords));
+                if g.abs() > 1e-9 {
+                    signs[i] = g.signum();
+                }
+            }
+        }
+    }
+    let mut fingers = Vec::new();
+    for (tip, distal, pts, normals) in found {
+        let first = robot.chain(tip)[0];
+        let base = Point3::from(poses[robot.joint(first).child.index()].translation.vector);
+        let dpose = poses[distal.index()];
         // The fingertip point: the tip frame when the tip has no geometry, else the distal
         // surface point farthest from the base.
         let end = if robot.link(tip).collision.is_empty() && tip != distal {
@@ -188,39 +283,36 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
             .map(|i| jac[WRIST_DOF + i] * signs[i])
             .sum();
         let closing = closing.try_normalize(1e-9).unwrap_or_else(Vector3::zeros);
-        fingers.push(Finger {
-            tip,
-            distal,
-            pad: Point3::origin(),
-            inward: Vector3::zeros(),
-            base,
-            end,
-            closing,
-        });
-        let f = fingers.last_mut().expect("just pushed");
-        let along = (f.end - f.base)
-            .try_normalize(1e-9)
-            .unwrap_or_else(Vector3::z);
+        let along = (end - base).try_normalize(1e-9).unwrap_or_else(Vector3::z);
         // Pad: the surface point most along the closing motion (toward the other fingers
-        // when the finger has none), a third of the weight toward the finger's end.
+        // when the finger has none), a third of the weight toward the finger's end, among
+        // the points whose surface faces that way (all points when none does).
         let toward = if closing == Vector3::zeros() {
             -along
         } else {
             closing
         };
+        let score = |p: &Point3<f64>| {
+            let w = dpose * p;
+            w.coords.dot(&toward) + (w - base).dot(&along) / 3.0
+        };
+        let faces = |n: &Vector3<f64>| (dpose.rotation * n).dot(&toward) >= 0.5;
+        let any_faces = normals.iter().any(faces);
         let best = pts
             .iter()
             .zip(&normals)
-            .max_by(|(a, _), (b, _)| {
-                let s = |p: &Point3<f64>| {
-                    let w = dpose * p;
-                    w.coords.dot(&toward) + (w - f.base).dot(&along) / 3.0
-                };
-                s(a).total_cmp(&s(b))
-            })
+            .filter(|(_, n)| !any_faces || faces(n))
+            .max_by(|(a, _), (b, _)| score(a).total_cmp(&score(b)))
             .ok_or_else(|| format!("link {:?} has no surface", robot.link(distal).name))?;
-        f.pad = *best.0;
-        f.inward = -best.1;
+        fingers.push(Finger {
+            tip,
+            distal,
+            pad: *best.0,
+            inward: -best.1,
+            base,
+            end,
+            closing,
+        });
     }
     // Directions of the fingers, the thumb as the odd one out.
     let dirs: Vec<Vector3<f64>> = fingers
@@ -237,10 +329,24 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
         .min_by(|&a, &b| dirs[a].dot(&mean).total_cmp(&dirs[b].dot(&mean)))
         .unwrap_or(0);
     let others: Vec<usize> = (0..fingers.len()).filter(|&i| i != thumb).collect();
-    let f_dir: Vector3<f64> = others.iter().map(|&i| dirs[i]).sum();
-    let f_dir = f_dir.try_normalize(1e-9).unwrap_or(mean);
     let close: Vector3<f64> = others.iter().map(|&i| fingers[i].closing).sum();
-    let close = close - f_dir * f_dir.dot(&close);
+    // Jaws: the thumb closes against the others' closing motion (a gripper), so that motion
+    // is no palm side; the fingers point along the mean of all of them.
+    let jaws = fingers[thumb]
+        .closing
+        .dot(&close.try_normalize(1e-9).unwrap_or_else(Vector3::zeros))
+        < -0.5;
+    let f_dir: Vector3<f64> = if jaws {
+        mean
+    } else {
+        let sum: Vector3<f64> = others.iter().map(|&i| dirs[i]).sum();
+        sum.try_normalize(1e-9).unwrap_or(mean)
+    };
+    let close = if jaws {
+        Vector3::zeros()
+    } else {
+        close - f_dir * f_dir.dot(&close)
+    };
     let palm_normal = match close.try_normalize(1e-6) {
         Some(n) => n,
         None => {
@@ -257,6 +363,31 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
         palm_normal,
         finger_dir: f_dir,
         q_ref,
+    })
+}
+
+/// The thumb and the two opposing fingers whose bases are nearest the thumb's tip across
+/// the hand (the fingers it opposes), as a layout of its own (thumb first); `None` when the hand has no more fingers
+/// than that.
+pub fn tripod(layout: &HandLayout) -> Option<HandLayout> {
+    if layout.fingers.len() <= 3 {
+        return None;
+    }
+    let lateral = layout.finger_dir.cross(&layout.palm_normal);
+    let mut others: Vec<usize> = (0..layout.fingers.len())
+        .filter(|&i| i != layout.thumb)
+        .collect();
+    let l = |i: usize| layout.fingers[i].base.coords.dot(&lateral);
+    let thumb = layout.fingers[layout.thumb].end.coords.dot(&lateral);
+    others.sort_by(|&a, &b| (l(a) - thumb).abs().total_cmp(&(l(b) - thumb).abs()));
+    others.truncate(2);
+    others.sort_unstable();
+    let mut fingers = vec![layout.fingers[layout.thumb].clone()];
+    fingers.extend(others.iter().map(|&i| layout.fingers[i].clone()));
+    Some(HandLayout {
+        fingers,
+        thumb: 0,
+        ..layout.clone()
     })
 }
 
@@ -383,4 +514,110 @@ pub fn open_q(robot: &Robot, wrist: &Isometry3<f64>, q: &[f64], centre: &Point3<
     }
     robot.clamp(&mut out);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn robot(text: &str) -> Robot {
+        Robot::from_urdf_str(
+            text,
+            Path::new("."),
+            Path::new("test.urdf"),
+            &crate::Limits::default(),
+        )
+        .unwrap()
+    }
+
+    /// A box link and a joint, as URDF text.
+    fn part(link: &str, size: &str, joint: &str) -> String {
+        format!(
+            r#"<link name="{link}"><collision><geometry><box size="{size}"/></geometry></collision></link>{joint}"#
+        )
+    }
+
+    #[test]
+    fn the_wrist_is_the_fingers_common_link_above_fixed_parts() {
+        // forearm -(revolute)-> palm -(fixed)-> plate, two fingers on the plate, a sensor
+        // frame fixed to the palm: the wrist is the palm, not the plate and not the forearm.
+        let finger = |n: &str, y: f64| {
+            part(
+                n,
+                "0.01 0.01 0.04",
+                &format!(
+                    r#"<joint name="{n}_j" type="revolute"><parent link="plate"/><child link="{n}"/><origin xyz="0 {y} 0.05"/><axis xyz="0 1 0"/><limit lower="0" upper="1.5" effort="1" velocity="1"/></joint>"#
+                ),
+            )
+        };
+        let text = format!(
+            r#"<robot name="arm">{}{}{}{}{}<link name="imu"/><joint name="imu_j" type="fixed"><parent link="palm"/><child link="imu"/></joint></robot>"#,
+            part("forearm", "0.05 0.05 0.2", ""),
+            part(
+                "palm",
+                "0.08 0.08 0.02",
+                r#"<joint name="wrist" type="revolute"><parent link="forearm"/><child link="palm"/><origin xyz="0 0 0.2"/><axis xyz="1 0 0"/><limit lower="-0.5" upper="0.5" effort="1" velocity="1"/></joint>"#
+            ),
+            part(
+                "plate",
+                "0.08 0.08 0.01",
+                r#"<joint name="plate_j" type="fixed"><parent link="palm"/><child link="plate"/></joint>"#
+            ),
+            finger("a", 0.02),
+            finger("b", -0.02),
+        );
+        let r = robot(&text);
+        assert_eq!(wrist_link(&r, None).as_deref(), Some("palm"));
+        let tips = ["a".to_string(), "b".to_string()];
+        assert_eq!(wrist_link(&r, Some(&tips)).as_deref(), Some("palm"));
+        // At its root the hand needs no other wrist link.
+        let ours = Robot::from_urdf_file(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/allegro_hand.urdf"),
+            &crate::Limits::default(),
+        )
+        .unwrap();
+        assert_eq!(wrist_link(&ours, None), None);
+    }
+
+    #[test]
+    fn jaws_close_toward_each_other_whatever_their_range() {
+        // Two prismatic jaws at 0 when closed, opening to 0.04 (the larger side of the
+        // range is the open one), one mimicking the other.
+        let jaw = |n: &str, y: &str, mimic: &str| {
+            part(
+                n,
+                "0.02 0.01 0.04",
+                &format!(
+                    r#"<joint name="{n}_j" type="prismatic"><parent link="palm"/><child link="{n}"/><origin xyz="0 0 0.05"/><axis xyz="0 {y} 0"/><limit lower="0" upper="0.04" effort="1" velocity="1"/>{mimic}</joint>"#
+                ),
+            )
+        };
+        let text = format!(
+            r#"<robot name="jaws">{}{}{}</robot>"#,
+            part("palm", "0.04 0.2 0.04", ""),
+            jaw("left", "1", ""),
+            jaw("right", "-1", r#"<mimic joint="left_j"/>"#),
+        )
+        // Jaw geometry off the joint axis, so each jaw's surface is on its own side.
+        .replace(
+            r#"<link name="left"><collision>"#,
+            r#"<link name="left"><collision><origin xyz="0 0.01 0.02"/>"#,
+        )
+        .replace(
+            r#"<link name="right"><collision>"#,
+            r#"<link name="right"><collision><origin xyz="0 -0.01 0.02"/>"#,
+        );
+        let r = robot(&text);
+        let l = layout(&r, None).unwrap();
+        assert_eq!(l.fingers.len(), 2);
+        for f in &l.fingers {
+            // Each jaw closes toward the other (toward y = 0).
+            let side = (r.link(f.distal).name == "left") as i32 as f64 * 2.0 - 1.0;
+            assert!(f.closing.y * side < -0.99, "{:?}", f.closing);
+        }
+        // The palm normal is across the jaws' motion, the fingers along z.
+        assert!(l.palm_normal.y.abs() < 1e-6, "{:?}", l.palm_normal);
+        assert!(l.finger_dir.z > 0.9, "{:?}", l.finger_dir);
+    }
 }

@@ -13,6 +13,7 @@ mod margin;
 mod model;
 mod nonpen;
 mod one_verdict;
+mod paths;
 mod physics;
 mod physics_regression;
 mod player;
