@@ -84,7 +84,7 @@ pub fn masks(eps: &[Episode]) -> BTreeMap<&'static str, Vec<String>> {
 }
 
 /// The `obs/<key>` rows of frame `k` of `e`.
-fn obs_row<'a>(e: &'a Episode, key: usize, k: usize) -> &'a [f32] {
+fn obs_row(e: &Episode, key: usize, k: usize) -> &[f32] {
     let (_, hand, from, to) = OBS_KEYS[key];
     let row: &[f32] = if hand { &e.state[k] } else { &e.object[k] };
     &row[from..to.unwrap_or(row.len())]
