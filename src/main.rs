@@ -359,7 +359,7 @@ enum Command {
     /// Write the trajectories below DIR (reports with their warped demonstrations, or
     /// .demo.json files) as one training dataset, quality figures as per-episode columns.
     #[command(
-        after_help = "Formats: lerobot (LeRobot v3.0, state only). The column mapping is in the README (Export and import).\n\nExamples:\n  dexwarp export reports/latest --format lerobot --robot human_hand --out out/dataset\n  dexwarp export out/aug/mug --format lerobot --only-passing --out out/mug_kept\n  dexwarp export out/mug.demo.json --format lerobot --fps 30 --out out/mug_lerobot"
+        after_help = "Formats: lerobot (LeRobot v3.0, state only, a folder), robomimic (one HDF5 file; a build with --features robomimic and the HDF5 C library). The column mapping and the HDF5 layout are in the README (Export and import).\n\nExamples:\n  dexwarp export reports/latest --format lerobot --robot human_hand --out out/dataset\n  dexwarp export out/aug/mug --format lerobot --only-passing --out out/mug_kept\n  dexwarp export out/mug.demo.json --format lerobot --fps 30 --out out/mug_lerobot\n  dexwarp export out/aug/mug --format robomimic --out out/mug.hdf5"
     )]
     Export {
         /// Folders (searched recursively for report.json) or demonstration files.
@@ -368,7 +368,7 @@ enum Command {
         /// Dataset format.
         #[arg(long, value_enum)]
         format: ExportFormat,
-        /// Dataset folder to create (written atomically).
+        /// Dataset folder (lerobot) or file (robomimic) to create, written atomically.
         #[arg(long, value_name = "OUT")]
         out: PathBuf,
         /// Only trajectories whose physics verdict is pass.
@@ -446,6 +446,8 @@ enum Command {
 enum ExportFormat {
     /// LeRobot v3.0 (parquet and meta/), state only.
     Lerobot,
+    /// robomimic HDF5 (one file; needs a build with the cargo feature robomimic).
+    Robomimic,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -889,7 +891,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Export {
             inputs,
-            format: ExportFormat::Lerobot,
+            format,
             out,
             only_passing,
             fps,
@@ -905,7 +907,10 @@ fn run(cli: Cli) -> Result<()> {
             options.force = force;
             options.progress = true;
             let t = std::time::Instant::now();
-            let done = dexwarp::export::export_lerobot(&options, &limits)?;
+            let done = match format {
+                ExportFormat::Lerobot => dexwarp::export::export_lerobot(&options, &limits)?,
+                ExportFormat::Robomimic => dexwarp::export::export_robomimic(&options, &limits)?,
+            };
             for (p, why) in &done.skipped {
                 eprintln!("skipped {}: {why}", p.display());
             }

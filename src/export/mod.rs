@@ -15,11 +15,16 @@
 //! - `action` = the next frame's `observation.state` (the hand target one step ahead; the
 //!   last frame repeats its own state).
 //!
-//! Output is atomic: the dataset is written into a hidden temporary folder beside `OUT`,
-//! then renamed into place; an existing `OUT` is refused unless `force`.
+//! [`export_robomimic`] writes the same episodes as one robomimic HDF5 file (cargo feature
+//! `robomimic`, see [`robomimic`]).
+//!
+//! Output is atomic: the dataset is written into a hidden temporary folder (or file) beside
+//! `OUT`, then renamed into place; an existing `OUT` is refused unless `force`.
 
 pub mod lerobot;
 mod light;
+#[cfg(feature = "robomimic")]
+pub mod robomimic;
 pub mod stats;
 
 use std::path::{Path, PathBuf};
@@ -504,6 +509,80 @@ pub fn export_lerobot(options: &ExportOptions, limits: &Limits) -> Result<Export
         frames,
         data_files,
         skipped: collected.skipped,
+    })
+}
+
+/// What a user must do to get `--format robomimic` on a build without the feature.
+pub const ROBOMIMIC_HOW: &str = "this dexwarp was built without robomimic HDF5 support: install the HDF5 C library (Debian/Ubuntu: apt-get install libhdf5-dev; macOS: brew install hdf5) and build with the cargo feature robomimic (cargo build --release --features robomimic), or export --format lerobot";
+
+/// Collects the trajectories and writes them as one robomimic HDF5 file `options.out`,
+/// atomically (see [`robomimic`]). Without the cargo feature `robomimic`, an error that
+/// says what to install and enable, before anything is read.
+pub fn export_robomimic(options: &ExportOptions, limits: &Limits) -> Result<Exported> {
+    #[cfg(not(feature = "robomimic"))]
+    {
+        let _ = limits;
+        Err(Error::invalid(
+            &options.out,
+            "--format robomimic",
+            ROBOMIMIC_HOW,
+        ))
+    }
+    #[cfg(feature = "robomimic")]
+    {
+        check_out(options)?;
+        let collected = collect(options, limits)?;
+        let frames = collected.episodes.iter().map(|e| e.state.len()).sum();
+        write_atomic_file(&options.out, options.force, |tmp| {
+            robomimic::write(tmp, &collected)
+        })?;
+        Ok(Exported {
+            episodes: collected.episodes.len(),
+            frames,
+            data_files: 1,
+            skipped: collected.skipped,
+        })
+    }
+}
+
+/// Runs `write` on a hidden temporary file beside `out`, then renames it to `out`
+/// (replacing an old `out` only when `force`). The temporary is removed on error.
+pub fn write_atomic_file(
+    out: &Path,
+    force: bool,
+    write: impl FnOnce(&Path) -> Result<()>,
+) -> Result<()> {
+    let parent = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(|e| Error::write(&parent, e))?;
+    crate::output::clean_stale(&parent);
+    let base = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "dataset".into());
+    let tmp = parent.join(format!(".{base}.dexwarp-tmp-{}-0", std::process::id()));
+    let _ = std::fs::remove_file(&tmp);
+    if let Err(e) = write(&tmp) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    if out.exists() && (!force || out.is_dir()) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::invalid(
+            out,
+            "(output)",
+            if out.is_dir() {
+                "is a folder; --format robomimic writes one file: choose a file name such as out/dataset.hdf5"
+            } else {
+                "exists; choose a new --out file or pass --force to replace it"
+            },
+        ));
+    }
+    std::fs::rename(&tmp, out).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::write(out, e)
     })
 }
 
