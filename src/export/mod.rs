@@ -545,13 +545,10 @@ pub fn export_robomimic(options: &ExportOptions, limits: &Limits) -> Result<Expo
     }
 }
 
-/// Runs `write` on a hidden temporary file beside `out`, then renames it to `out`
-/// (replacing an old `out` only when `force`). The temporary is removed on error.
-pub fn write_atomic_file(
-    out: &Path,
-    force: bool,
-    write: impl FnOnce(&Path) -> Result<()>,
-) -> Result<()> {
+/// The hidden temporary path `.<name>.dexwarp-tmp-<pid>-<suffix>` beside `out` that an
+/// output is written to before it is renamed into place (its folder made, stale temporaries
+/// of killed runs removed).
+fn staging_path(out: &Path, suffix: &str) -> Result<PathBuf> {
     let parent = match out.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -562,7 +559,20 @@ pub fn write_atomic_file(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "dataset".into());
-    let tmp = parent.join(format!(".{base}.dexwarp-tmp-{}-0", std::process::id()));
+    Ok(parent.join(format!(
+        ".{base}.dexwarp-tmp-{}-{suffix}",
+        std::process::id()
+    )))
+}
+
+/// Runs `write` on a hidden temporary file beside `out`, then renames it to `out`
+/// (replacing an old `out` only when `force`). The temporary is removed on error.
+pub fn write_atomic_file(
+    out: &Path,
+    force: bool,
+    write: impl FnOnce(&Path) -> Result<()>,
+) -> Result<()> {
+    let tmp = staging_path(out, "0")?;
     let _ = std::fs::remove_file(&tmp);
     if let Err(e) = write(&tmp) {
         let _ = std::fs::remove_file(&tmp);
@@ -620,17 +630,7 @@ pub fn write_atomic_dir<T>(
     force: bool,
     write: impl FnOnce(&Path) -> Result<T>,
 ) -> Result<T> {
-    let parent = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent).map_err(|e| Error::write(&parent, e))?;
-    crate::output::clean_stale(&parent);
-    let base = out
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "dataset".into());
-    let tmp = parent.join(format!(".{base}.dexwarp-tmp-{}-0", std::process::id()));
+    let tmp = staging_path(out, "0")?;
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir(&tmp).map_err(|e| Error::write(&tmp, e))?;
     let result = write(&tmp);
@@ -650,7 +650,7 @@ pub fn write_atomic_dir<T>(
                 "exists; choose a new --out folder or pass --force to replace it",
             ));
         }
-        let old = parent.join(format!(".{base}.dexwarp-tmp-{}-old", std::process::id()));
+        let old = staging_path(out, "old")?;
         std::fs::rename(out, &old).map_err(|e| Error::write(out, e))?;
         std::fs::rename(&tmp, out).map_err(|e| Error::write(out, e))?;
         let _ = std::fs::remove_dir_all(&old);

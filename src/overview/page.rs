@@ -57,6 +57,26 @@ fn label(it: &Item) -> String {
     }
 }
 
+/// The robustness margin's sentence (`warp --margin`), `robust` when every condition
+/// holds, `-` when the report has none.
+fn margin(r: Option<&crate::model::report::Report>) -> String {
+    let m = r
+        .and_then(|r| r.physics.as_ref())
+        .and_then(|p| p.measures.get("margin"))
+        .filter(|m| !m.is_null());
+    match m {
+        None => "-".into(),
+        Some(m) => {
+            let sentence = m["sentence"].as_str().unwrap_or("-");
+            if m["robust"].as_bool() == Some(true) {
+                format!("robust: {sentence}")
+            } else {
+                sentence.to_string()
+            }
+        }
+    }
+}
+
 /// The player entries and data scripts of `items` (next to `page`, in `player/`), built in
 /// parallel; items without a drawable trajectory are returned with the reason.
 fn players(
@@ -206,7 +226,7 @@ pub fn write_page(
     }
     body.push_str("</div>\n");
 
-    body.push_str("<h2>Items</h2>\n<table><tr><th>item</th><th>hand</th><th>threshold [mm]</th><th>verdict</th><th>first reason</th><th>D_C [mm]</th><th>D_WO [mm]</th><th>PLR object</th><th>timewarp disc.</th><th>penetration [mm]</th><th>time [s]</th></tr>\n");
+    body.push_str("<h2>Items</h2>\n<table><tr><th>item</th><th>hand</th><th>threshold [mm]</th><th>verdict</th><th>first reason</th><th>D_C [mm]</th><th>D_WO [mm]</th><th>PLR object</th><th>timewarp disc.</th><th>penetration [mm]</th><th>margin</th><th>time [s]</th></tr>\n");
     for it in items.iter().take(TABLE_ROWS) {
         let reasons = it.reasons();
         let name = if playable.contains(it.id.as_str()) {
@@ -225,7 +245,7 @@ pub fn write_page(
         };
         let r = it.finished();
         body.push_str(&format!(
-            "<tr class=\"{}\"><td>{name}</td><td>{}</td><td>{}</td><td>{}</td><td title=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+            "<tr class=\"{}\"><td>{name}</td><td>{}</td><td>{}</td><td>{}</td><td title=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
             if matches!(it.status(), "fail" | "error") { "bad" } else { "" },
             escape(r.and_then(|r| r.hand.as_deref()).unwrap_or("-")),
             num(r.and_then(|r| r.threshold_mm), 1),
@@ -237,6 +257,7 @@ pub fn write_page(
             num(r.map(|r| r.metrics.plr_object), 3),
             num(r.map(|r| r.metrics.timewarp_discrepancy), 3),
             num(r.and_then(|r| r.constraints.hand_object_penetration_mm.map(|p| p.warped)), 2),
+            escape(&margin(r)),
             num(r.map(seconds), 1),
         ));
     }

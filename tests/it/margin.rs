@@ -72,4 +72,18 @@ fn margin_is_reported_and_filter_keeps_only_robust_passes() {
     } else {
         assert!(dropped.contains("not robust: holds down to"), "{dropped}");
     }
+
+    // The HTML report shows the margin of the run that has one, `-` for the other.
+    let page = dir.path().join("page.html");
+    let o = dexwarp(&["report", &s(&dir.path().join("runs")), "--out", &s(&page)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(&page).unwrap();
+    let sentence = m["sentence"].as_str().unwrap();
+    let shown = if all {
+        format!("<td>robust: {sentence}</td>")
+    } else {
+        format!("<td>{sentence}</td>")
+    };
+    assert!(html.contains(&shown), "{shown} is not in the page's table");
+    assert!(html.contains("<th>margin</th>"));
 }

@@ -322,3 +322,19 @@ fn warp_ends_with_the_verdict_and_its_first_reason() {
         );
     }
 }
+
+/// The committed `reproduce` page, `reports/latest/index.html`, carries the player with its
+/// data scripts in `reports/latest/player/`, and it plays in the browser.
+#[test]
+fn the_committed_reproduce_page_plays() {
+    let page = repo("reports/latest/index.html");
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        html.contains("id=\"player\"")
+            && html.contains("player/reproduce-teapot_pour_cups-lm_3.5mm.js"),
+        "reports/latest/index.html has no player for teapot_pour_cups"
+    );
+    if have_chromium() {
+        check_player(&page, "teapot_pour_cups/lm_3.5mm");
+    }
+}
