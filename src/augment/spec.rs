@@ -190,22 +190,26 @@ fn half() -> f64 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct KeepJson {
-    /// Smallest fraction of frames on which the IK met its threshold. Default 1.
-    #[serde(default = "one")]
+    /// Smallest fraction of contact frames the IK solved: it met its threshold, or stopped
+    /// where going on would press the hand into the object or a barrier (the report's
+    /// `ik.stop_reasons` `penetration_limited`, `barrier_limited`). Default 0.95: a few
+    /// frames that stall in a local minimum beside solved neighbours are smoothed over, and
+    /// physics and D_C judge the result.
+    #[serde(default = "min_solved")]
     pub min_converged: f64,
     /// Largest output D_C [mm]. Default none.
     #[serde(default)]
     pub max_dc_mm: Option<f64>,
 }
 
-fn one() -> f64 {
-    1.0
+fn min_solved() -> f64 {
+    0.95
 }
 
 impl Default for KeepJson {
     fn default() -> Self {
         KeepJson {
-            min_converged: 1.0,
+            min_converged: min_solved(),
             max_dc_mm: None,
         }
     }

@@ -1,7 +1,8 @@
 //! The yield of an augment run: one row per sample (`samples.csv`) and `stats.json`.
 //!
 //! A sample is **rejected** (not run: infeasible by construction), **kept** (no error, physics
-//! `pass`, no narrow gap, IK converged on at least `keep.min_converged` of its frames, D_C at
+//! `pass`, no narrow gap, the IK solved at least `keep.min_converged` of its frames (met its
+//! threshold or stopped at the penetration or barrier limit, [`crate::model::report::IkSummary::solved_fraction`]), D_C at
 //! most `keep.max_dc_mm`) or **failed** (every reason listed). Reasons are stable keys:
 //! `physics:<check>` (from the physics verdict's sentences), `ik:not_converged`,
 //! `ik:d_c_above_max`, `narrow_gap`, `error`. A failed sample counts once under each of its
@@ -101,13 +102,19 @@ pub fn classify(report: &Report, keep: &KeepJson) -> (&'static str, Vec<String>,
         }
     }
     if let Some(ik) = &report.ik
-        && ik.converged_fraction < keep.min_converged
+        && ik.solved_fraction() < keep.min_converged
     {
         keys.push("ik:not_converged".into());
         words.push(format!(
-            "IK met its threshold on {:.1}% of frames < {:.1}%",
+            "IK solved {:.1}% of frames < {:.1}% (met its threshold on {:.1}%; stop reasons {})",
+            ik.solved_fraction() * 100.0,
+            keep.min_converged * 100.0,
             ik.converged_fraction * 100.0,
-            keep.min_converged * 100.0
+            ik.stop_reasons
+                .iter()
+                .map(|(k, n)| format!("{k} {n}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         ));
     }
     if let Some(max) = keep.max_dc_mm
@@ -357,6 +364,35 @@ mod tests {
             "physics:grip_lost",
             "unknown sentences keep their leading words"
         );
+    }
+
+    #[test]
+    fn frames_stopped_at_a_constraint_count_as_solved() {
+        use crate::model::report::IkSummary;
+        // 100 contact frames: 60 met the threshold, 30 stopped at the penetration limit,
+        // 10 in a local minimum.
+        let ik = IkSummary {
+            converged_fraction: 0.6,
+            stop_reasons: [
+                ("penetration_limited".to_string(), 30),
+                ("local_minimum".to_string(), 10),
+            ]
+            .into_iter()
+            .collect(),
+            ..IkSummary::default()
+        };
+        assert!((ik.solved_fraction() - 0.9).abs() < 1e-12);
+        let all = IkSummary {
+            converged_fraction: 1.0,
+            ..IkSummary::default()
+        };
+        assert_eq!(all.solved_fraction(), 1.0);
+        let none = IkSummary {
+            converged_fraction: 0.0,
+            stop_reasons: [("iteration_cap".to_string(), 7)].into_iter().collect(),
+            ..IkSummary::default()
+        };
+        assert_eq!(none.solved_fraction(), 0.0);
     }
 
     #[test]

@@ -143,6 +143,27 @@ pub struct IkSummary {
     pub smoothing_guard: Option<GuardSummary>,
 }
 
+impl IkSummary {
+    /// Fraction of contact-segment output frames whose solve ended where it should: it met
+    /// the threshold, or it stopped at a constraint, where going on would press the hand
+    /// into the object (`penetration_limited`) or a barrier (`barrier_limited`). What is left
+    /// are the solver's own failures (`iteration_cap`, `local_minimum`, `non_finite`).
+    pub fn solved_fraction(&self) -> f64 {
+        let missed: usize = self.stop_reasons.values().sum();
+        if missed == 0 {
+            return self.converged_fraction;
+        }
+        let limited = ["penetration_limited", "barrier_limited"]
+            .iter()
+            .filter_map(|k| self.stop_reasons.get(*k))
+            .sum::<usize>();
+        // `missed` frames are the (1 - converged_fraction) share of the segment.
+        let unsolved =
+            (1.0 - self.converged_fraction) * (missed - limited.min(missed)) as f64 / missed as f64;
+        (1.0 - unsolved).clamp(0.0, 1.0)
+    }
+}
+
 /// The smoothing guard: frames the smoothing had pressed deeper than the IK allowed.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct GuardSummary {
