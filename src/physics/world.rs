@@ -4,7 +4,8 @@
 //! Bodies:
 //! - every hand link with collision geometry is a kinematic position-based body; its
 //!   colliders carry the finger skin ([`super::Params::finger_skin_m`]) and the hand friction
-//!   with the `Max` combine rule;
+//!   with the `Max` combine rule (with [`HandModel::Actuated`], every link is instead a
+//!   dynamic body of one multibody driven by joint motors, see `actuated.rs`);
 //! - the object is one dynamic body whose collider is the compound of its convex parts, with
 //!   the demonstration's mass (inertia from the parts at uniform density); it never sleeps,
 //!   so a slowly closing hand always wakes it;
