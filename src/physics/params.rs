@@ -74,7 +74,8 @@ pub struct Actuation {
     /// Motor damping as a time constant [s]: damping = stiffness × this; default 0.005.
     pub damping_time_s: f64,
     /// Natural frequency [Hz] of the spring-damper pulling the root link toward the
-    /// trajectory (a soft six-axis lock); default 20: a 1 kg load shifts it by about 0.6 mm.
+    /// trajectory (a soft six-axis lock); default 20. The lock is acceleration-based, so gravity
+    /// alone sags the hand by g / (2π · 20 Hz)² ≈ 0.6 mm (computed, not measured).
     pub wrist_frequency_hz: f64,
     /// Damping ratio of that spring-damper; default 1 (critical).
     pub wrist_damping_ratio: f64,

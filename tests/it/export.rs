@@ -488,21 +488,7 @@ fn pyarrow_readback(out: &Path, demos: &[Demo], reports: &[Value]) {
         },
         "tasks": ["small_box: box_lift"],
     });
-    let path = out.with_extension("expected.json");
-    std::fs::write(&path, expected.to_string()).unwrap();
-    let o = std::process::Command::new(&python)
-        .arg(repo("scripts/export/readback.py"))
-        .arg(out)
-        .arg(&path)
-        .output()
-        .expect("run the pyarrow readback");
-    assert!(
-        o.status.success(),
-        "pyarrow readback: {}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    eprintln!("{}", String::from_utf8_lossy(&o.stdout).trim());
+    python_readback(&python, "readback.py", out, &expected);
 }
 
 /// The robomimic file of the two-warp batch: every frame of every `obs`, `next_obs`,
@@ -744,21 +730,7 @@ fn h5py_readback(
         "demos": groups,
         "masks": masks,
     });
-    let path = out.with_extension("expected.json");
-    std::fs::write(&path, expected.to_string()).unwrap();
-    let o = std::process::Command::new(&python)
-        .arg(repo("scripts/export/readback_robomimic.py"))
-        .arg(out)
-        .arg(&path)
-        .output()
-        .expect("run the h5py readback");
-    assert!(
-        o.status.success(),
-        "h5py readback: {}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    eprintln!("{}", String::from_utf8_lossy(&o.stdout).trim());
+    python_readback(&python, "readback_robomimic.py", out, &expected);
 }
 
 /// A build without the feature refuses `--format robomimic` before reading anything, and
@@ -782,4 +754,24 @@ fn robomimic_without_the_feature_says_what_to_install() {
         assert!(err.contains(w), "{err:?} lacks {w:?}");
     }
     assert!(!out.exists());
+}
+
+/// Runs `scripts/export/SCRIPT OUT EXPECTED.json` with `python` (the readback venv), which
+/// compares what an independent reader finds in `out` with `expected`; fails with its output.
+fn python_readback(python: &str, script: &str, out: &Path, expected: &serde_json::Value) {
+    let path = out.with_extension("expected.json");
+    std::fs::write(&path, expected.to_string()).unwrap();
+    let o = std::process::Command::new(python)
+        .arg(repo(&format!("scripts/export/{script}")))
+        .arg(out)
+        .arg(&path)
+        .output()
+        .unwrap_or_else(|e| panic!("run {script}: {e}"));
+    assert!(
+        o.status.success(),
+        "{script}: {}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    eprintln!("{}", String::from_utf8_lossy(&o.stdout).trim());
 }
