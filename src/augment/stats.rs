@@ -17,6 +17,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::spec::KeepJson;
+use crate::math::quantile::quantile_sorted;
 use crate::model::report::Report;
 
 /// The `format` value of `stats.json`.
@@ -150,26 +151,15 @@ pub struct Summary {
     pub max: Option<f64>,
 }
 
-/// Percentile `q` (0..1) of sorted values, linear between ranks.
-fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
-    if sorted.is_empty() {
-        return None;
-    }
-    let x = q * (sorted.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x.fract());
-    let next = sorted[(i + 1).min(sorted.len() - 1)];
-    Some(sorted[i] + f * (next - sorted[i]))
-}
-
 impl Summary {
     pub fn of(values: impl Iterator<Item = f64>) -> Summary {
         let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
         v.sort_by(f64::total_cmp);
         Summary {
             n: v.len(),
-            median: percentile(&v, 0.5),
-            p10: percentile(&v, 0.1),
-            p90: percentile(&v, 0.9),
+            median: quantile_sorted(&v, 0.5),
+            p10: quantile_sorted(&v, 0.1),
+            p90: quantile_sorted(&v, 0.9),
             mean: (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64),
             min: v.first().copied(),
             max: v.last().copied(),

@@ -446,15 +446,17 @@ fn load_one(
     let bytes =
         crate::model::json::read_limited(&f.demo, limits, limits.max_file_bytes, "--max-file-mb")
             .map_err(fail)?;
-    if let Some(sha) = listed_sha
-        && crate::model::provenance::sha256_hex(&bytes) != sha
-    {
-        return Err(LoadError::Skip(format!(
-            "{} is not the file this report was written with (a mixed or interrupted output set)",
-            f.demo.display()
-        )));
+    let demo = match listed_sha {
+        Some(sha) if crate::model::provenance::sha256_hex(&bytes) != sha => {
+            return Err(LoadError::Skip(format!(
+                "{} is not the file this report was written with (a mixed or interrupted output set)",
+                f.demo.display()
+            )));
+        }
+        Some(_) => light::parse_verified(&f.demo, &bytes, limits),
+        None => light::parse(&f.demo, &bytes, limits),
     }
-    let demo = light::parse(&f.demo, &bytes, limits).map_err(fail)?;
+    .map_err(fail)?;
     let (fps, stride) = stride_for(demo.fps, options.fps, &f.demo).map_err(LoadError::Fatal)?;
     let (state, object) = demo.rows(stride);
     let quality = quality.unwrap_or_else(|| Quality {

@@ -9,6 +9,8 @@
 
 use serde_json::{Map, Value, json};
 
+use crate::math::quantile::quantile_sorted;
+
 /// The quantiles LeRobot writes, with their keys.
 pub const QUANTILES: [(f64, &str); 5] = [
     (0.01, "q01"),
@@ -40,7 +42,7 @@ pub fn feature_stats(rows: &[&[f64]]) -> Value {
         mins.push(column.first().copied().unwrap_or(0.0));
         maxs.push(column.last().copied().unwrap_or(0.0));
         for (k, (q, _)) in QUANTILES.iter().enumerate() {
-            quants[k].push(quantile_sorted(&column, *q));
+            quants[k].push(quantile_sorted(&column, *q).unwrap_or(0.0));
         }
     }
     out.insert("min".into(), json!(mins));
@@ -52,20 +54,6 @@ pub fn feature_stats(rows: &[&[f64]]) -> Value {
         out.insert((*key).into(), json!(quants[k]));
     }
     Value::Object(out)
-}
-
-/// The `q` quantile of sorted values, linear between order statistics (0 when empty).
-pub fn quantile_sorted(sorted: &[f64], q: f64) -> f64 {
-    match sorted.len() {
-        0 => 0.0,
-        1 => sorted[0],
-        len => {
-            let pos = q.clamp(0.0, 1.0) * (len - 1) as f64;
-            let lo = pos.floor() as usize;
-            let hi = (lo + 1).min(len - 1);
-            sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64)
-        }
-    }
 }
 
 #[cfg(test)]
@@ -88,12 +76,5 @@ mod tests {
         let std = s["std"][0].as_f64().unwrap();
         assert!((std - ((101.0f64 * 101.0 - 1.0) / 12.0).sqrt()).abs() < 1e-9);
         assert_eq!(s["std"][1], json!(0.0));
-    }
-
-    #[test]
-    fn quantiles_interpolate() {
-        assert_eq!(quantile_sorted(&[0.0, 10.0], 0.25), 2.5);
-        assert_eq!(quantile_sorted(&[3.0], 0.9), 3.0);
-        assert_eq!(quantile_sorted(&[], 0.5), 0.0);
     }
 }

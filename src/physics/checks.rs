@@ -27,9 +27,10 @@ use rapier3d_f64::parry::shape::Shape;
 
 use super::object::ObjectShape;
 use super::params::Params;
-use super::report::{Drop, DropCause, Penetration, Stability, Tracking};
-use super::world::ReplayWorld;
+use super::report::{Drop, DropCause, Grip, Penetration, Stability, Tracking};
+use super::world::{GripSample, ReplayWorld};
 use crate::math::convert::to_pose;
+use crate::math::quantile::quantile_sorted;
 use crate::math::rotation::angle_between;
 use crate::model::{ContactSegment, Demo};
 use crate::robot::{CollisionShape, Robot};
@@ -350,4 +351,26 @@ pub fn nearest_support(
         }
     }
     best
+}
+
+/// The grip over the contact segment's samples `segment` (one per frame), for an object of
+/// weight `weight_n` [N].
+pub fn grip(segment: &[GripSample], weight_n: f64) -> Grip {
+    let mut forces: Vec<f64> = segment
+        .iter()
+        .map(|g| g.normal_n)
+        .filter(|&f| f > 0.0)
+        .collect();
+    forces.sort_by(f64::total_cmp);
+    let total: f64 = forces.iter().sum();
+    let share = |part: f64| if total > 0.0 { part / total } else { 0.0 };
+    Grip {
+        frames: segment.len(),
+        frames_pressing: forces.len(),
+        median_normal_force_n: quantile_sorted(&forces, 0.5).unwrap_or(0.0),
+        max_normal_force_n: forces.last().copied().unwrap_or(0.0),
+        weight_n,
+        at_overlap_share: share(segment.iter().map(|g| g.at_overlap_n).sum()),
+        from_overlap_share: share(segment.iter().map(|g| g.from_overlap_n).sum()),
+    }
 }

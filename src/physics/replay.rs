@@ -11,13 +11,13 @@
 //!
 //! which Rapier reaches at the end of the step (position-based kinematic bodies get the
 //! velocity that takes them there, so the contacts see the hand's true motion). The object's
-//! pose and speed are recorded after the last step of each interval, i.e. at
-//! every frame time. A non-finite object pose stops the replay and is reported, never
-//! propagated.
+//! pose and speed are recorded after the last step of each interval, i.e. at every frame
+//! time, with the hand's contact forces on it ([`ReplayWorld::grip`]). A non-finite object
+//! pose stops the replay and is reported, never propagated.
 
 use nalgebra::{Isometry3, Translation3};
 
-use super::world::ReplayWorld;
+use super::world::{GripSample, ReplayWorld};
 use crate::math::rotation::slerp_shortest;
 use crate::model::{Demo, Frame};
 use crate::robot::Robot;
@@ -37,6 +37,8 @@ pub struct Trace {
     pub steps: usize,
     /// First frame at which the object pose was not finite.
     pub diverged_at: Option<usize>,
+    /// The hand's contact forces on the object in the last step before each frame time.
+    pub grip: Vec<GripSample>,
 }
 
 /// Steps per frame interval for frame rate `fps` and largest step `max_dt` [s].
@@ -81,6 +83,8 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
     trace.object.reserve(frames.len());
     trace.object.push(world.object_pose());
     trace.speed_m_s.push(world.object_speed());
+    trace.grip.reserve(frames.len());
+    trace.grip.push(GripSample::default());
     let mut q = vec![0.0; robot.dof()];
     let mut link_poses = robot.new_link_poses();
     for i in 1..frames.len() {
@@ -100,10 +104,12 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
             let last = *trace.object.last().unwrap_or(&frames[0].object);
             trace.object.resize(frames.len(), last);
             trace.speed_m_s.resize(frames.len(), 0.0);
+            trace.grip.resize(frames.len(), GripSample::default());
             break;
         }
         trace.object.push(pose);
         trace.speed_m_s.push(world.object_speed());
+        trace.grip.push(world.grip());
     }
     trace
 }

@@ -109,6 +109,29 @@ pub struct Release {
     pub final_speed_m_s: f64,
 }
 
+/// How the hand held the simulated object: its normal contact forces at the frame times of
+/// the contact segment, and how much of them the fingers' overlap with the object accounts
+/// for rather than the contact skin (see the module docs of [`super`], "Finger softness").
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Grip {
+    /// Frames of the contact segment.
+    pub frames: usize,
+    /// Of those, the frames at which the hand pressed on the object.
+    pub frames_pressing: usize,
+    /// Median and largest total normal force of the hand on the object over the pressing
+    /// frames [N].
+    pub median_normal_force_n: f64,
+    pub max_normal_force_n: f64,
+    /// The object's weight m·g [N], for scale.
+    pub weight_n: f64,
+    /// Of the normal force summed over the pressing frames, the share at contact points
+    /// where the rigid shapes overlap (the rest presses through the skin alone).
+    pub at_overlap_share: f64,
+    /// The share the overlap accounts for when each point's force is split in proportion
+    /// to its compression, overlap against skin; the skin's share is `1 −` this.
+    pub from_overlap_share: f64,
+}
+
 /// How the replay ran.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ReplayInfo {
@@ -121,7 +144,7 @@ pub struct ReplayInfo {
     pub contact_segment: Option<[usize; 2]>,
     pub object_parts: usize,
     pub object_shape: Option<ShapeMethod>,
-    /// The decomposition came from the process cache.
+    /// The decomposition came from a cache (this process's or the one on disk).
     pub decomposition_cached: bool,
     /// First frame whose simulated object pose was not finite.
     pub diverged_frame: Option<usize>,
@@ -130,7 +153,8 @@ pub struct ReplayInfo {
     pub hand: super::params::HandModel,
 }
 
-/// Wall times [s] (the only fields that differ between two runs on the same input).
+/// Wall times [s]. With [`ReplayInfo::decomposition_cached`] (a cache state), the only fields
+/// that differ between two runs on the same input.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timing {
     pub decomposition: f64,
@@ -166,6 +190,9 @@ pub struct PhysicsReport {
     pub stability: Option<Stability>,
     /// `null` when the contact segment runs to the last frame (nothing is released).
     pub release: Option<Release>,
+    /// `null` without a contact segment (reports before it existed read as `null`).
+    #[serde(default)]
+    pub grip: Option<Grip>,
     pub replay: ReplayInfo,
     pub timing_s: Timing,
     /// The robustness margin ([`super::margin`]); `None` when not asked for
@@ -200,6 +227,7 @@ impl PhysicsReport {
         put("penetration", json(&self.penetration));
         put("stability", json(&self.stability));
         put("release", json(&self.release));
+        put("grip", json(&self.grip));
         put("replay", json(&self.replay));
         put("timing_s", json(&self.timing_s));
         put("margin", json(&self.margin));

@@ -83,6 +83,8 @@ pub struct ReplayWorld {
     pub object: RigidBodyHandle,
     /// The object's collider.
     pub object_collider: ColliderHandle,
+    /// The hand colliders' contact skin [m].
+    finger_skin_m: f64,
 }
 
 impl std::fmt::Debug for ReplayWorld {
@@ -220,6 +222,72 @@ impl ReplayWorld {
     pub fn object_speed(&self) -> f64 {
         self.world.bodies[self.object].linvel().length()
     }
+
+    /// The hand's contact forces on the object in the last step (see [`GripSample`]).
+    ///
+    /// Rapier keeps each contact point's normal impulse over the step (summed over its
+    /// substeps) and its distance between the rigid shapes; the force is the impulse over
+    /// the step length, as in Rapier's own contact-force events. `skin` is the hand
+    /// colliders' contact skin ([`Params::finger_skin_m`]): the solver pushes until the
+    /// rigid distance is `skin`, so a point at distance `d` is compressed by `skin − d`.
+    pub fn grip(&self) -> GripSample {
+        let skin = self.finger_skin_m;
+        let dt = self.world.integration_parameters.dt;
+        let mut g = GripSample::default();
+        if dt <= 0.0 {
+            return g;
+        }
+        for pair in self.world.contact_pairs_with(self.object_collider) {
+            let other = if pair.collider1 == self.object_collider {
+                pair.collider2
+            } else {
+                pair.collider1
+            };
+            let is_hand = self
+                .world
+                .colliders
+                .get(other)
+                .is_some_and(|c| c.user_data == Tag::Hand as u128);
+            if !is_hand {
+                continue;
+            }
+            for m in pair.solver_manifolds() {
+                for pt in m.contacts() {
+                    // A diverged step (reported by the replay) adds nothing, never a NaN.
+                    let force = pt.data.impulse.max(0.0) / dt;
+                    if force == 0.0 || !force.is_finite() {
+                        continue;
+                    }
+                    g.normal_n += force;
+                    let overlap = (-pt.dist).max(0.0);
+                    if overlap > 0.0 {
+                        g.at_overlap_n += force;
+                    }
+                    let compression = skin - pt.dist;
+                    if compression > 0.0 {
+                        g.from_overlap_n += force * overlap / compression;
+                    }
+                }
+            }
+        }
+        g
+    }
+}
+
+/// The hand's normal contact force on the object at one instant, and where it comes from.
+///
+/// A kinematic finger grips only through the contact solver's push-out, which acts on the
+/// compression `skin − d` of each contact point (`d` the rigid shapes' distance, negative
+/// when they overlap): part of it is the skin, part the fingers' overlap with the object.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GripSample {
+    /// Total normal force [N].
+    pub normal_n: f64,
+    /// The part at points where the rigid shapes overlap (`d < 0`) [N].
+    pub at_overlap_n: f64,
+    /// Each point's force split in proportion to its compression, overlap `max(−d, 0)`
+    /// against skin: the overlap's part [N].
+    pub from_overlap_n: f64,
 }
 
 fn empty_world(params: &Params, dt: f64, gravity: Vector3<f64>) -> PhysicsWorld {
@@ -278,5 +346,6 @@ fn with_object_and_scene(
         hand,
         object: object_body,
         object_collider,
+        finger_skin_m: params.finger_skin_m,
     }
 }

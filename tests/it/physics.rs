@@ -15,7 +15,7 @@ use dexwarp::geometry::Mesh;
 use dexwarp::model::demo::ObjectInfo;
 use dexwarp::model::scene::ShapeJson;
 use dexwarp::model::{Contact, Demo, Frame, Role, Scene, SceneItem};
-use dexwarp::physics::world::{FixedItem, ReplayWorld, Tag};
+use dexwarp::physics::world::{FixedItem, GripSample, ReplayWorld, Tag};
 use dexwarp::physics::{DropCause, Params, PhysicsReport, object_shape, validate};
 use dexwarp::robot::{CollisionShape, Robot, ShapeKind};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
@@ -98,6 +98,11 @@ fn smoothstep(u: f64) -> f64 {
 /// Squeezes a 6 cm, 0.2 kg cube between the plates with the given overlap per side
 /// (negative = gap), lifts 20 cm in 1 s, holds 0.5 s; returns the final error [m].
 fn squeeze_lift(overlap: f64, params: &Params) -> f64 {
+    squeeze_lift_grip(overlap, params).0
+}
+
+/// [`squeeze_lift`], with the plates' contact forces on the cube at the end of the hold.
+fn squeeze_lift_grip(overlap: f64, params: &Params) -> (f64, GripSample) {
     let robot = plates(0.03 - overlap);
     let cube = object_shape(&box_mesh([0.06; 3]), &params.decomposition)
         .unwrap()
@@ -129,7 +134,8 @@ fn squeeze_lift(overlap: f64, params: &Params) -> f64 {
         world.drive_hand(&poses, &[]);
         world.step();
     }
-    (world.object_pose().translation.vector - Vector3::new(0.0, 0.0, 0.23)).norm()
+    let err = (world.object_pose().translation.vector - Vector3::new(0.0, 0.0, 0.23)).norm();
+    (err, world.grip())
 }
 
 #[test]
@@ -148,6 +154,58 @@ fn plates_squeezing_a_cube_lift_it_for_surfaces_within_2mm() {
             overlap * 1e3,
             err * 1e3
         );
+    }
+}
+
+#[test]
+fn the_grip_force_splits_into_the_skin_and_the_overlap() {
+    // Friction carries the weight: the plates' total normal force N must reach m·g / μ
+    // (two faces, each at most μ·N/2), and it grows with the compression skin + overlap.
+    let params = Params::default();
+    let mu = params.hand_friction.max(params.object_friction);
+    let weight = 0.2 * 9.81;
+    let mut last = 0.0;
+    for overlap in [-0.002, 0.0, 0.001, 0.002] {
+        let (err, g) = squeeze_lift_grip(overlap, &params);
+        let (at, from) = (g.at_overlap_n / g.normal_n, g.from_overlap_n / g.normal_n);
+        println!(
+            "plates at {:+.1} mm: error {:.3} mm, normal force {:.2} N (weight / μ {:.2} N), \
+             at overlapping points {:.0} %, from the overlap {:.0} %",
+            overlap * 1e3,
+            err * 1e3,
+            g.normal_n,
+            weight / mu,
+            100.0 * at,
+            100.0 * from
+        );
+        assert!(err < 0.002, "the cube must be held ({:.3} mm)", err * 1e3);
+        assert!(
+            g.normal_n >= 0.99 * weight / mu,
+            "a held cube needs N >= m·g/μ = {:.2} N; measured {:.2} N",
+            weight / mu,
+            g.normal_n
+        );
+        assert!(
+            g.normal_n > last,
+            "more compression must press harder: {:.2} N after {last:.2} N",
+            g.normal_n
+        );
+        last = g.normal_n;
+        if overlap < 0.0 {
+            // Plates off the surface: everything presses through the skin.
+            assert!(at == 0.0 && from == 0.0, "no overlap: {at} and {from}");
+        } else if overlap == 0.0 {
+            // At the surface (a point may sit a rounding error inside).
+            assert!(from < 0.01, "plates at the surface: overlap share {from}");
+        } else {
+            // Every point overlaps; by compression, overlap / (overlap + skin).
+            let expected = overlap / (overlap + params.finger_skin_m);
+            assert!(at > 0.99, "every point overlaps: {at}");
+            assert!(
+                (from - expected).abs() < 0.05,
+                "overlap share {from:.3}; expected about {expected:.3}"
+            );
+        }
     }
 }
 
