@@ -2,8 +2,9 @@
 //!
 //! A sample is **rejected** (not run: infeasible by construction), **kept** (no error, physics
 //! `pass`, no narrow gap, the IK solved at least `keep.min_converged` of its frames (met its
-//! threshold or stopped at the penetration or barrier limit, [`crate::model::report::IkSummary::solved_fraction`]), D_C at
-//! most `keep.max_dc_mm`) or **failed** (every reason listed). Reasons are stable keys:
+//! threshold or stopped at the penetration or barrier limit,
+//! [`crate::model::report::IkSummary::solved_fraction`]), D_C at most `keep.max_dc_mm`) or
+//! **failed** (every reason listed). Reasons are stable keys:
 //! `physics:<check>` (from the physics verdict's sentences), `ik:not_converged`,
 //! `ik:d_c_above_max`, `narrow_gap`, `error`. A failed sample counts once under each of its
 //! reasons, so the reason counts can add up to more than `failed`.
