@@ -115,7 +115,8 @@ pub struct Constraints {
 /// Hand recovery summary.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct IkSummary {
-    /// Fraction of contact-segment output frames that met the threshold.
+    /// Fraction of contact-segment output frames that met the stop rule (the threshold, or
+    /// with the default objective the recording's own fit where that is tighter).
     pub converged_fraction: f64,
     /// Frames that did not meet the stop rule, by output frame.
     pub not_converged_frames: Vec<usize>,

@@ -29,7 +29,10 @@
 //! **Stop rule** (both solvers): a frame is *converged* when the mean contact distance is
 //! below `threshold_mm` and, with the non-penetration objective, no probe is deeper than
 //! [`Params::penetration_tolerance_mm`]; it is checked before every iteration, so a warm
-//! start that already meets it costs no iteration. Any other ending is reported
+//! start that already meets it costs no iteration. With the non-penetration objective,
+//! [`run`] also holds each frame to the recording's own fit when that is tighter (see
+//! `recording_targets_m`): a loose threshold never returns contacts fitting worse than
+//! the demonstration's. Any other ending is reported
 //! `converged = false` with a [`StopReason`]: `penetration_limited` (the contacts cannot be
 //! reached without pressing in, or the fingers cannot be got out), `barrier_limited` (the
 //! barrier term holds the hand off), `iteration_cap` or `local_minimum`. The returned
@@ -349,7 +352,9 @@ pub fn resolve_contacts(robot: &Robot, contacts: &[Contact]) -> Vec<ResolvedCont
 /// The outcome of one frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FrameResult {
-    /// The mean contact distance met the threshold (always true without contacts).
+    /// The frame met the stop rule: the mean contact distance under the frame's threshold
+    /// (always true without contacts) and, with the non-penetration term, no probe deeper
+    /// than the tolerance.
     pub converged: bool,
     /// Iterations spent (LM: linear solves; Adam: steps).
     pub iterations: usize,
@@ -428,6 +433,8 @@ pub struct IkSolver<'a> {
     /// The object shape of the surface-point penetration term, and its obstacle this frame.
     surface_object: Option<&'a CollisionShape>,
     surface_obstacle: Option<Obstacle>,
+    /// The stop rule's contact threshold for the frame being solved [m].
+    target_m: f64,
 }
 
 impl<'a> IkSolver<'a> {
@@ -443,7 +450,6 @@ impl<'a> IkSolver<'a> {
         let n = WRIST_DOF + robot.dof();
         IkSolver {
             geo: Geometry::new(robot, barriers, object),
-            params,
             n,
             poses: robot.new_link_poses(),
             trial_poses: robot.new_link_poses(),
@@ -463,6 +469,8 @@ impl<'a> IkSolver<'a> {
             object_from_world: None,
             surface_object: None,
             surface_obstacle: None,
+            target_m: params.threshold_mm * 1e-3,
+            params,
         }
     }
 
@@ -488,6 +496,22 @@ impl<'a> IkSolver<'a> {
         wrist: &mut Isometry3<f64>,
         q: &mut [f64],
     ) -> FrameResult {
+        let threshold_m = self.params.threshold_mm * 1e-3;
+        self.solve_within(object_pose, contacts, wrist, q, threshold_m)
+    }
+
+    /// [`IkSolver::solve`] with the stop rule's contact threshold `threshold_m` [m] for this
+    /// frame instead of [`Params::threshold_mm`] (see [`run`]: never above the recording's
+    /// own fit).
+    pub fn solve_within(
+        &mut self,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &mut Isometry3<f64>,
+        q: &mut [f64],
+        threshold_m: f64,
+    ) -> FrameResult {
+        self.target_m = threshold_m;
         assert_eq!(q.len(), self.geo.robot.dof(), "q has the wrong length");
         self.wrist0 = *wrist;
         self.q0.copy_from_slice(q);
@@ -577,7 +601,7 @@ impl<'a> IkSolver<'a> {
     }
 
     fn threshold_m(&self) -> f64 {
-        self.params.threshold_mm * 1e-3
+        self.target_m
     }
 
     /// FK into `poses` (or `trial_poses`) and the objective's parts.
@@ -658,6 +682,72 @@ impl<'a> IkSolver<'a> {
     }
 }
 
+/// The default objective's per-source-frame stop targets [m] (0 for frames without
+/// contacts), indexed from `c0`: a frame stops only below the tighter of the threshold and
+/// its target, so a loose threshold never returns contacts fitting worse than the
+/// recording's (the paper's objective keeps its stop rule as printed).
+///
+/// The target of source frame `s` is the recording's own mean contact distance `d(s)`,
+/// scaled by `min(1, (D_C − room) / D_τ)`: `D_C` is the recording's D_C (the mean of `d`
+/// over its frames with contacts), `D_τ` the mean of `d(τ⁻¹(t))` over the output frames
+/// (above `D_C` where τ gives the worse-fitting frames more output time), and `room` =
+/// 0.1 mm is left for stage 5, whose smoothing adds 0.001-0.06 mm to D_C on the built-in
+/// configs. So the output's D_C stays at or below the recording's however τ weights the
+/// frames, and where the rigid transfer is exact (`D_τ = D_C`) the targets ask it for
+/// 0.1 mm of D_C at most (about 2 %). Each target carries 1 µm of slack so a frame that
+/// fits exactly as well as its target counts as meeting it.
+fn recording_targets_m(
+    robot: &Robot,
+    demo: &Demo,
+    warp: &ObjectWarp,
+    resolved: &[Vec<ResolvedContact>],
+) -> Vec<f64> {
+    const SLACK_M: f64 = 1e-6;
+    const ROOM_M: f64 = 1e-4;
+    let plan = &warp.plan;
+    let c0 = plan.segment.start;
+    let mut poses = robot.new_link_poses();
+    let d: Vec<f64> = demo.frames[c0..c0 + resolved.len()]
+        .iter()
+        .zip(resolved)
+        .map(|(f, contacts)| recording_distance_m(robot, f, contacts, &mut poses))
+        .collect();
+    let mean = |v: &mut dyn Iterator<Item = f64>| {
+        let (sum, n) = v
+            .filter(|&x| x > 0.0)
+            .fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+        (n > 0).then(|| sum / n as f64)
+    };
+    let d_c = mean(&mut d.iter().copied());
+    let d_tau = mean(&mut (c0..=plan.t_end_new()).map(|t| d[warp.source_frame(t) - c0]));
+    let scale = match (d_c, d_tau) {
+        (Some(a), Some(b)) if b > a - ROOM_M => ((a - ROOM_M) / b).max(0.0),
+        _ => 1.0,
+    };
+    d.into_iter()
+        .map(|x| if x > 0.0 { x * scale + SLACK_M } else { 0.0 })
+        .collect()
+}
+
+/// The recording's own mean contact distance at `frame` [m] (0 without contacts):
+/// `(1/N) Σ_i |FK_i(θ)·h_i − O·o_i|` at the demonstration's hand and object poses.
+fn recording_distance_m(
+    robot: &Robot,
+    frame: &crate::model::Frame,
+    contacts: &[ResolvedContact],
+    poses: &mut [Isometry3<f64>],
+) -> f64 {
+    if contacts.is_empty() {
+        return 0.0;
+    }
+    robot.forward_kinematics(&frame.wrist, &frame.joints, poses);
+    let sum: f64 = contacts
+        .iter()
+        .map(|c| (poses[c.link.index()] * c.hand_point - frame.object * c.object_point).norm())
+        .sum();
+    sum / contacts.len() as f64
+}
+
 /// What stage 4 did.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
@@ -671,7 +761,8 @@ pub struct Stats {
     pub frames: Vec<FrameResult>,
     /// First output frame of `frames` (c0).
     pub first_frame: usize,
-    /// Fraction of `frames` that met the threshold.
+    /// Fraction of `frames` that met the stop rule (the threshold, or the recording's fit
+    /// where tighter).
     pub converged_fraction: f64,
     /// Output frames that did not meet the threshold (cap reached or stalled).
     pub not_converged: Vec<usize>,
@@ -747,6 +838,9 @@ pub fn run(
         })
         .collect();
 
+    let threshold_m = params.threshold_mm * 1e-3;
+    let recording_m = (params.objective == Objective::NonPenetrating)
+        .then(|| recording_targets_m(robot, demo, warp, &resolved));
     let mut out = init.clone();
     let dof = robot.dof();
     let mut solver = IkSolver::new(robot, barriers, object, params.clone());
@@ -768,7 +862,11 @@ pub fn run(
         if t > c0 && (contacts.is_empty() || params.warm_start == WarmStart::FollowObject) {
             wrist = object_pose * prev_object.inverse() * wrist;
         }
-        let r = solver.solve(&object_pose, contacts, &mut wrist, &mut q);
+        let target_m = match &recording_m {
+            Some(d) if d[s - c0] > 0.0 => threshold_m.min(d[s - c0]),
+            _ => threshold_m,
+        };
+        let r = solver.solve_within(&object_pose, contacts, &mut wrist, &mut q, target_m);
         if r.non_finite {
             stats.non_finite.push(t);
         }
