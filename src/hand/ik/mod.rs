@@ -704,6 +704,7 @@ fn recording_targets_m(
 ) -> Vec<f64> {
     const SLACK_M: f64 = 1e-6;
     const ROOM_M: f64 = 1e-4;
+    const LEAST_M: f64 = 1e-3;
     let plan = &warp.plan;
     let c0 = plan.segment.start;
     let mut poses = robot.new_link_poses();
@@ -725,7 +726,13 @@ fn recording_targets_m(
         _ => 1.0,
     };
     d.into_iter()
-        .map(|x| if x > 0.0 { x * scale + SLACK_M } else { 0.0 })
+        .map(|x| {
+            if x > 0.0 {
+                (x * scale).max(LEAST_M) + SLACK_M
+            } else {
+                0.0
+            }
+        })
         .collect()
 }
 
