@@ -771,7 +771,7 @@ pub struct Stats {
     /// Fraction of `frames` that met the stop rule (the threshold, or the recording's fit
     /// where tighter).
     pub converged_fraction: f64,
-    /// Output frames that did not meet the threshold (cap reached or stalled).
+    /// Output frames that did not meet the stop rule (the reason is in each frame's `stop`).
     pub not_converged: Vec<usize>,
     /// Output frames whose solution was not finite (the warm start was kept).
     pub non_finite: Vec<usize>,
