@@ -696,63 +696,28 @@ impl<'a> IkSolver<'a> {
 /// frames, and where the rigid transfer is exact (`D_τ = D_C`) the targets ask it for
 /// 0.1 mm of D_C at most (about 2 %). Each target carries 1 µm of slack so a frame that
 /// fits exactly as well as its target counts as meeting it.
-fn recording_targets_m(
-    robot: &Robot,
-    demo: &Demo,
-    warp: &ObjectWarp,
-    resolved: &[Vec<ResolvedContact>],
-) -> Vec<f64> {
-    const SLACK_M: f64 = 1e-6;
-    const ROOM_M: f64 = 1e-4;
-    const LEAST_M: f64 = 1e-3;
+fn recording_targets_m(robot: &Robot, demo: &Demo, warp: &ObjectWarp) -> Vec<f64> {
+    const SLACK_MM: f64 = 1e-3;
+    const ROOM_MM: f64 = 0.1;
+    const LEAST_MM: f64 = 1.0;
     let plan = &warp.plan;
-    let c0 = plan.segment.start;
-    let mut poses = robot.new_link_poses();
-    let d: Vec<f64> = demo.frames[c0..c0 + resolved.len()]
-        .iter()
-        .zip(resolved)
-        .map(|(f, contacts)| recording_distance_m(robot, f, contacts, &mut poses))
+    let (c0, c1) = (plan.segment.start, plan.segment.end);
+    // The same per-frame distances and D_C as the report's `d_c_mm.original`.
+    let per_frame = crate::metrics::contact_distance_per_frame_mm(robot, demo);
+    let d = &per_frame[c0..=c1];
+    let d_c = crate::metrics::d_c_mm(&per_frame);
+    let stretched: Vec<Option<f64>> = (c0..=plan.t_end_new())
+        .map(|t| d[warp.source_frame(t) - c0])
         .collect();
-    let mean = |v: &mut dyn Iterator<Item = f64>| {
-        let (sum, n) = v
-            .filter(|&x| x > 0.0)
-            .fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
-        (n > 0).then(|| sum / n as f64)
+    let d_tau = crate::metrics::d_c_mm(&stretched);
+    let scale = if d_c > 0.0 && d_tau > d_c - ROOM_MM {
+        ((d_c - ROOM_MM) / d_tau).max(0.0)
+    } else {
+        1.0
     };
-    let d_c = mean(&mut d.iter().copied());
-    let d_tau = mean(&mut (c0..=plan.t_end_new()).map(|t| d[warp.source_frame(t) - c0]));
-    let scale = match (d_c, d_tau) {
-        (Some(a), Some(b)) if b > a - ROOM_M => ((a - ROOM_M) / b).max(0.0),
-        _ => 1.0,
-    };
-    d.into_iter()
-        .map(|x| {
-            if x > 0.0 {
-                (x * scale).max(LEAST_M) + SLACK_M
-            } else {
-                0.0
-            }
-        })
+    d.iter()
+        .map(|x| x.map_or(0.0, |x| ((x * scale).max(LEAST_MM) + SLACK_MM) * 1e-3))
         .collect()
-}
-
-/// The recording's own mean contact distance at `frame` [m] (0 without contacts):
-/// `(1/N) Σ_i |FK_i(θ)·h_i − O·o_i|` at the demonstration's hand and object poses.
-fn recording_distance_m(
-    robot: &Robot,
-    frame: &crate::model::Frame,
-    contacts: &[ResolvedContact],
-    poses: &mut [Isometry3<f64>],
-) -> f64 {
-    if contacts.is_empty() {
-        return 0.0;
-    }
-    robot.forward_kinematics(&frame.wrist, &frame.joints, poses);
-    let sum: f64 = contacts
-        .iter()
-        .map(|c| (poses[c.link.index()] * c.hand_point - frame.object * c.object_point).norm())
-        .sum();
-    sum / contacts.len() as f64
 }
 
 /// What stage 4 did.
@@ -847,7 +812,7 @@ pub fn run(
 
     let threshold_m = params.threshold_mm * 1e-3;
     let recording_m = (params.objective == Objective::NonPenetrating)
-        .then(|| recording_targets_m(robot, demo, warp, &resolved));
+        .then(|| recording_targets_m(robot, demo, warp));
     let mut out = init.clone();
     let dof = robot.dof();
     let mut solver = IkSolver::new(robot, barriers, object, params.clone());
