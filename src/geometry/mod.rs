@@ -1,7 +1,10 @@
-//! Meshes (OBJ, STL), the object's signed distance field, and shape queries on parry shapes.
+//! Meshes (OBJ, STL), the object's signed distance field, bounding-sphere trees, and shape
+//! queries on parry shapes.
 
 pub mod mesh;
 pub mod sdf;
+pub mod sphere_tree;
 
 pub use mesh::Mesh;
 pub use sdf::{ObjectSdf, SdfParams, object_sdf};
+pub use sphere_tree::SphereTree;

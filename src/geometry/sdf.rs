@@ -273,16 +273,24 @@ impl ObjectSdf {
     /// Signed distance of the object-frame point `p` [m] (see the module docs).
     #[inline]
     pub fn distance(&self, p: &Point3<f64>) -> f64 {
-        self.distance_and_gradient(p).0
+        // The same layers and values as `distance_and_gradient`, without the gradients.
+        match self.fine.lookup::<false>(p) {
+            Lookup::Exact(v, _) => v,
+            Lookup::Clamped(v, _) if v < 0.0 => self.exact.surface_point(p).signed_distance,
+            _ => match self.coarse.lookup::<false>(p) {
+                Lookup::Clamped(v, _) if v < 0.0 => self.exact.surface_point(p).signed_distance,
+                Lookup::Exact(v, _) | Lookup::Clamped(v, _) | Lookup::Beyond(v, _) => v,
+            },
+        }
     }
 
     /// Signed distance [m] and its gradient (about unit, pointing out) at the object-frame
     /// point `p` (see the module docs for which layer answers).
     pub fn distance_and_gradient(&self, p: &Point3<f64>) -> (f64, Vector3<f64>) {
-        match self.fine.lookup(p) {
+        match self.fine.lookup::<true>(p) {
             Lookup::Exact(v, g) => (v, g),
             Lookup::Clamped(v, _) if v < 0.0 => self.exact.distance_and_gradient(p),
-            _ => match self.coarse.lookup(p) {
+            _ => match self.coarse.lookup::<true>(p) {
                 Lookup::Clamped(v, _) if v < 0.0 => self.exact.distance_and_gradient(p),
                 Lookup::Exact(v, g) | Lookup::Clamped(v, g) | Lookup::Beyond(v, g) => (v, g),
             },
@@ -302,7 +310,9 @@ enum Lookup {
 }
 
 impl Grid {
-    fn lookup(&self, p: &Point3<f64>) -> Lookup {
+    /// The grid's value at `p`, and with `GRAD` its gradient (zero otherwise).
+    #[inline]
+    fn lookup<const GRAD: bool>(&self, p: &Point3<f64>) -> Lookup {
         let g = self;
         let u = (p.coords - g.origin) * g.inv_h;
         let [nx, ny, nz] = g.dims;
@@ -319,6 +329,9 @@ impl Grid {
                 g.origin + Vector3::new((nx - 1) as f64, (ny - 1) as f64, (nz - 1) as f64) * g.h;
             let d = (lo - p.coords).sup(&(p.coords - hi)).sup(&Vector3::zeros());
             let n = d.norm();
+            if !GRAD {
+                return Lookup::Beyond(g.pad + n, Vector3::zeros());
+            }
             let grad = if n > 0.0 { d / n } else { Vector3::z() };
             let grad = Vector3::new(
                 if p.x < lo.x { -grad.x } else { grad.x },
@@ -327,9 +340,10 @@ impl Grid {
             );
             return Lookup::Beyond(g.pad + n, grad);
         }
-        let i = (u.x.floor() as usize).min(nx - 2);
-        let j = (u.y.floor() as usize).min(ny - 2);
-        let k = (u.z.floor() as usize).min(nz - 2);
+        // `u` is in the grid (and not negative) here, so truncation is the floor.
+        let i = (u.x as usize).min(nx - 2);
+        let j = (u.y as usize).min(ny - 2);
+        let k = (u.z as usize).min(nz - 2);
         let (fx, fy, fz) = (u.x - i as f64, u.y - j as f64, u.z - k as f64);
         let base = i + nx * (j + ny * k);
         let (sy, sz) = (nx, nx * ny);
@@ -353,6 +367,13 @@ impl Grid {
         let y0 = x00 + (x10 - x00) * fy;
         let y1 = x01 + (x11 - x01) * fy;
         let v = y0 + (y1 - y0) * fz;
+        if !GRAD {
+            return if clamped {
+                Lookup::Clamped(v, Vector3::zeros())
+            } else {
+                Lookup::Exact(v, Vector3::zeros())
+            };
+        }
         let dx0 = (c[1] - c[0]) + ((c[3] - c[2]) - (c[1] - c[0])) * fy;
         let dx1 = (c[5] - c[4]) + ((c[7] - c[6]) - (c[5] - c[4])) * fy;
         let dx = dx0 + (dx1 - dx0) * fz;

@@ -20,5 +20,5 @@ mod urdf_geometry;
 
 pub use kinematics::{WRIST_DOF, apply_wrist_step};
 pub use model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};
-pub use probes::{Probe, ProbeCluster, Probes};
+pub use probes::{Probe, Probes};
 pub use shape::{CollisionShape, ShapeKind, SurfaceSampling};

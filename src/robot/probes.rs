@@ -15,20 +15,23 @@
 //!   of depth between points (0.3 mm for `R` = 1 cm), a cylinder of radius `r` at most
 //!   `r(1 − cos(s/2r))` (0.4 mm for an 8 mm finger).
 //!
-//! Probes are grouped in clusters of at most [`CLUSTER_SIZE`] neighbours with a bounding
-//! radius, so a query first asks `φ` at a cluster's centre: since `φ` is 1-Lipschitz, no
-//! probe of the cluster can be deeper than `R_cluster − φ(centre)`.
+//! A link's probes are the leaves of a bounding-sphere tree (a median split along the
+//! longest axis of each node's box, at most [`LEAF_SIZE`] probes per leaf), so a query asks
+//! `φ` at a node's centre first: since `φ` is 1-Lipschitz, no probe under the node can be
+//! deeper than `R_node − φ(centre)`. A finger away from the object costs one query, a palm
+//! touching it only the queries of the patches that touch.
 
-use nalgebra::Point3;
+use nalgebra::{Isometry3, Point3, Vector3};
 
 use super::shape::{CollisionShape, ShapeKind, SurfaceSampling};
+use crate::geometry::{ObjectSdf, SphereTree};
 
 /// Largest distance between neighbouring probes on a capsule's axis [m].
 pub const AXIS_SPACING_M: f64 = 0.002;
 /// Spacing of surface probes on boxes, cylinders and meshes [m].
 pub const SURFACE_SPACING_M: f64 = 0.005;
-/// Probes per cluster.
-pub const CLUSTER_SIZE: usize = 16;
+/// Most probes in a leaf of a link's probe tree.
+pub const LEAF_SIZE: usize = 4;
 /// Most surface probes on one shape (a large mesh is sampled more coarsely).
 const MAX_SURFACE_PROBES: usize = 4000;
 
@@ -41,32 +44,19 @@ pub struct Probe {
     pub radius: f64,
 }
 
-/// Consecutive probes with a bounding sphere: every probe ball lies inside
-/// `B(center, radius)`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ProbeCluster {
-    /// Centre, link frame [m].
-    pub center: Point3<f64>,
-    /// Bounding radius [m], probe radii included.
-    pub radius: f64,
-    /// Range of the cluster's probes in [`Probes::probes`].
-    pub start: u32,
-    pub end: u32,
-}
-
-/// The penetration probes of one link.
+/// The penetration probes of one link and their tree.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Probes {
     pub probes: Vec<Probe>,
-    pub clusters: Vec<ProbeCluster>,
+    /// Bounding-sphere tree of the probe balls (leaves of at most [`LEAF_SIZE`]).
+    pub tree: SphereTree,
 }
 
 impl Probes {
     /// The probes of a link with these collision shapes (link frame).
     pub fn of_shapes(shapes: &[CollisionShape]) -> Probes {
-        let mut out = Probes::default();
+        let mut probes = Vec::new();
         for shape in shapes {
-            let first = out.probes.len();
             match shape.kind {
                 ShapeKind::Capsule { radius, length } => {
                     let n = (length / AXIS_SPACING_M).ceil().max(0.0) as usize;
@@ -76,13 +66,13 @@ impl Probes {
                         } else {
                             -length / 2.0 + length * k as f64 / n as f64
                         };
-                        out.probes.push(Probe {
+                        probes.push(Probe {
                             point: shape.origin * Point3::new(0.0, 0.0, z),
                             radius,
                         });
                     }
                 }
-                ShapeKind::Sphere { radius } => out.probes.push(Probe {
+                ShapeKind::Sphere { radius } => probes.push(Probe {
                     point: shape.origin * Point3::origin(),
                     radius,
                 }),
@@ -93,97 +83,180 @@ impl Probes {
                     };
                     let (mut points, mut normals) = (Vec::new(), Vec::new());
                     shape.sample_surface(&sampling, &mut points, &mut normals);
-                    out.probes
-                        .extend(points.into_iter().map(|point| Probe { point, radius: 0.0 }));
+                    probes.extend(points.into_iter().map(|point| Probe { point, radius: 0.0 }));
                 }
             }
-            // Clusters never span two shapes.
-            let mut start = first;
-            while start < out.probes.len() {
-                let end = (start + CLUSTER_SIZE).min(out.probes.len());
-                let chunk = &out.probes[start..end];
-                let center = Point3::from(
-                    chunk
-                        .iter()
-                        .map(|p| p.point.coords)
-                        .sum::<nalgebra::Vector3<f64>>()
-                        / chunk.len() as f64,
-                );
-                let radius = chunk
-                    .iter()
-                    .map(|p| (p.point - center).norm() + p.radius)
-                    .fold(0.0, f64::max);
-                out.clusters.push(ProbeCluster {
-                    center,
-                    radius,
-                    start: start as u32,
-                    end: end as u32,
-                });
-                start = end;
-            }
         }
-        out
+        let centres: Vec<Point3<f64>> = probes.iter().map(|p| p.point).collect();
+        let tree = SphereTree::new(&centres, |i| probes[i].radius, LEAF_SIZE);
+        Probes { probes, tree }
     }
 
-    /// The probes of one cluster.
-    #[inline]
-    pub fn of(&self, c: &ProbeCluster) -> &[Probe] {
-        &self.probes[c.start as usize..c.end as usize]
-    }
-
-    /// Bounding sphere of all clusters (link frame); radius < 0 when there are none.
+    /// Bounding sphere of all probes (link frame); radius < 0 when there are none.
     pub fn bounding_sphere(&self) -> (Point3<f64>, f64) {
-        if self.clusters.is_empty() {
-            return (Point3::origin(), -1.0);
-        }
-        let center = Point3::from(
-            self.clusters
-                .iter()
-                .map(|c| c.center.coords)
-                .sum::<nalgebra::Vector3<f64>>()
-                / self.clusters.len() as f64,
+        self.tree.bounding_sphere()
+    }
+
+    /// Calls `f(probe, φ, ∇φ)` (object frame) for every probe deeper than `active` [m] in
+    /// the object, `r − φ(c) > active`, in the tree's leaf order; `to_object` maps the link
+    /// frame to the object frame. A subtree whose sphere cannot reach that depth costs one
+    /// query.
+    #[inline]
+    pub fn visit_deeper(
+        &self,
+        sdf: &ObjectSdf,
+        to_object: &Isometry3<f64>,
+        active: f64,
+        mut f: impl FnMut(&Probe, f64, &Vector3<f64>),
+    ) {
+        self.tree.visit(
+            |node| node.radius - sdf.distance(&(to_object * node.center)) <= active,
+            |leaf| {
+                for &i in leaf {
+                    let p = &self.probes[i as usize];
+                    let (phi, grad) = sdf.distance_and_gradient(&(to_object * p.point));
+                    if p.radius - phi > active {
+                        f(p, phi, &grad);
+                    }
+                }
+            },
         );
-        let radius = self
-            .clusters
-            .iter()
-            .map(|c| (c.center - center).norm() + c.radius)
-            .fold(0.0, f64::max);
-        (center, radius)
     }
 }
 
 /// The deepest probe of the hand at `link_poses` (world) in the object whose frame is
 /// `object_from_world`: `(depth [m], link)`, or `None` when no probe is deeper than 0.
-/// Branch and bound on link and cluster spheres (`φ` is 1-Lipschitz), so a hand far from
-/// the object costs one query per link.
+/// Branch and bound on each link's probe tree (`φ` is 1-Lipschitz), the deeper-looking
+/// child first, so a hand far from the object costs one query per link and a hand touching
+/// it little more than the leaves that hold the deepest probes.
 pub fn deepest(
     robot: &super::Robot,
-    link_poses: &[nalgebra::Isometry3<f64>],
-    object_from_world: &nalgebra::Isometry3<f64>,
-    sdf: &crate::geometry::ObjectSdf,
+    link_poses: &[Isometry3<f64>],
+    object_from_world: &Isometry3<f64>,
+    sdf: &ObjectSdf,
 ) -> Option<(f64, super::LinkId)> {
-    let mut best: Option<(f64, super::LinkId)> = None;
-    let floor = |b: &Option<(f64, super::LinkId)>| b.map_or(0.0, |(d, _)| d);
-    for (l, link) in robot.links().iter().enumerate() {
-        let (c, r) = link.probes.bounding_sphere();
-        if r < 0.0 {
-            continue;
-        }
+    // Minimizes φ(c) − r = −depth; `best` starts at 0, so only probes deeper than 0 count.
+    let mut best = 0.0;
+    let mut link = None;
+    for (l, links) in robot.links().iter().enumerate() {
+        let probes = &links.probes;
         let to_object = object_from_world * link_poses[l];
-        if r - sdf.distance(&(to_object * c)) <= floor(&best) {
-            continue;
+        best = probes.tree.minimize(
+            best,
+            |node| sdf.distance(&(to_object * node.center)) - node.radius,
+            |leaf, best| {
+                for &i in leaf {
+                    let p = &probes.probes[i as usize];
+                    let v = sdf.distance(&(to_object * p.point)) - p.radius;
+                    if v < *best {
+                        *best = v;
+                        link = Some(super::LinkId(l as u32));
+                    }
+                }
+            },
+        );
+    }
+    link.map(|l| (-best, l))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Limits;
+    use crate::geometry::SdfParams;
+    use crate::robot::{LinkId, Robot};
+    use crate::synth::objects::{ObjectKind, object_mesh};
+    use nalgebra::{Translation3, UnitQuaternion};
+
+    /// The tree queries give what a query of every probe gives: the same probes deeper than
+    /// the threshold (in leaf order) and the same deepest probe, on the human hand at poses
+    /// that put the palm and fingers in, at and away from the apple.
+    #[test]
+    fn tree_queries_match_every_probe() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
+        let robot = Robot::from_urdf_file(&path, &Limits::default()).unwrap();
+        let sdf = ObjectSdf::new(object_mesh(ObjectKind::Apple), &SdfParams::default()).unwrap();
+        let mut q = robot.neutral_q();
+        for (i, v) in q.iter_mut().enumerate() {
+            *v += 0.3 * ((i % 3) as f64);
         }
-        for cluster in &link.probes.clusters {
-            if cluster.radius - sdf.distance(&(to_object * cluster.center)) <= floor(&best) {
-                continue;
+        robot.clamp(&mut q);
+        let mut poses = robot.new_link_poses();
+        let mut hits = 0;
+        for k in 0..40 {
+            let s = k as f64 / 40.0;
+            let wrist = Isometry3::from_parts(
+                Translation3::new(0.12 * (s - 0.5), 0.08 * (3.0 * s).sin(), 0.03 - 0.1 * s),
+                UnitQuaternion::from_euler_angles(2.0 * s, -s, 0.5 * s),
+            );
+            robot.forward_kinematics(&wrist, &q, &mut poses);
+            let object_from_world = Isometry3::identity();
+            let mut every: Option<(f64, LinkId)> = None;
+            for (l, link) in robot.links().iter().enumerate() {
+                let to_object = object_from_world * poses[l];
+                for active in [0.0, 5e-4, 3e-3] {
+                    let expected: Vec<Point3<f64>> = link
+                        .probes
+                        .tree
+                        .order
+                        .iter()
+                        .map(|&i| &link.probes.probes[i as usize])
+                        .filter(|p| p.radius - sdf.distance(&(to_object * p.point)) > active)
+                        .map(|p| p.point)
+                        .collect();
+                    let mut found = Vec::new();
+                    link.probes
+                        .visit_deeper(&sdf, &to_object, active, |p, _, _| found.push(p.point));
+                    assert_eq!(found, expected, "link {l}, pose {k}, threshold {active}");
+                    hits += found.len();
+                }
+                for p in &link.probes.probes {
+                    let depth = p.radius - sdf.distance(&(to_object * p.point));
+                    if depth > every.map_or(0.0, |(d, _)| d) {
+                        every = Some((depth, LinkId(l as u32)));
+                    }
+                }
             }
-            for p in link.probes.of(cluster) {
-                let depth = p.radius - sdf.distance(&(to_object * p.point));
-                if depth > floor(&best) {
-                    best = Some((depth, super::LinkId(l as u32)));
+            assert_eq!(
+                deepest(&robot, &poses, &object_from_world, &sdf),
+                every,
+                "pose {k}"
+            );
+        }
+        assert!(hits > 100, "the poses must put probes in the apple: {hits}");
+    }
+
+    /// Every probe is in exactly one leaf, and every node's sphere holds its probes' balls.
+    #[test]
+    fn tree_covers_every_probe_once() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
+        let robot = Robot::from_urdf_file(&path, &Limits::default()).unwrap();
+        for link in robot.links() {
+            let (t, probes) = (&link.probes.tree, &link.probes.probes);
+            let mut sorted = t.order.clone();
+            sorted.sort_unstable();
+            assert_eq!(
+                sorted,
+                (0..probes.len() as u32).collect::<Vec<_>>(),
+                "{}",
+                link.name
+            );
+            for (i, n) in t.nodes.iter().enumerate() {
+                // The probes under node i: walk its subtree.
+                let mut stack = vec![i];
+                while let Some(j) = stack.pop() {
+                    let m = &t.nodes[j];
+                    if m.is_leaf() {
+                        assert!(m.end - m.start <= LEAF_SIZE as u32);
+                        for &k in &t.order[m.start as usize..m.end as usize] {
+                            let p = &probes[k as usize];
+                            assert!((p.point - n.center).norm() + p.radius <= n.radius + 1e-12);
+                        }
+                    } else {
+                        stack.extend([j + 1, m.end as usize]);
+                    }
                 }
             }
         }
     }
-    best
 }

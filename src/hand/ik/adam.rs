@@ -5,7 +5,8 @@ use nalgebra::{Isometry3, Vector3};
 use super::*;
 
 impl IkSolver<'_> {
-    /// The paper's Adam (see the module docs). Returns (converged, iterations, eval,
+    /// The paper's Adam (see the module docs) from `start`, the evaluation of the warm
+    /// start (with `self.poses` and `self.hits` at it). Returns (converged, iterations, eval,
     /// whether the iteration cap ended it). Adam's steps may raise `F`: the best iterate
     /// visited is what it returns, so a frame never ends worse than its warm start.
     pub(super) fn solve_adam(
@@ -14,6 +15,7 @@ impl IkSolver<'_> {
         contacts: &[ResolvedContact],
         wrist: &mut Isometry3<f64>,
         q: &mut [f64],
+        start: Eval,
     ) -> (bool, usize, Eval, bool) {
         const B1: f64 = 0.9;
         const B2: f64 = 0.999;
@@ -27,8 +29,8 @@ impl IkSolver<'_> {
         let (mut b1t, mut b2t) = (1.0, 1.0);
         let mut iterations = 0;
         let mut best: Option<(f64, Isometry3<f64>, Eval)> = None;
+        let mut cur = start;
         loop {
-            let cur = self.evaluate(false, object_pose, contacts, wrist, q);
             if self.meets_stop_rule(&cur, nc) {
                 return (true, iterations, cur, false);
             }
@@ -64,10 +66,12 @@ impl IkSolver<'_> {
                 q[j] += s[WRIST_DOF + j];
             }
             robot.clamp(q);
+            cur = self.evaluate(false, object_pose, contacts, wrist, q);
         }
     }
 
-    /// `g = ∇F` at `self.poses` (exactly the printed objective, no proximal term).
+    /// `g = ∇F` at `self.poses` (exactly the printed objective, no proximal term), with the
+    /// active points `self.hits` that [`IkSolver::evaluate`] found there.
     pub(super) fn gradient(&mut self, object_pose: &Isometry3<f64>, contacts: &[ResolvedContact]) {
         self.g.fill(0.0);
         let geo = &self.geo;
@@ -91,53 +95,50 @@ impl IkSolver<'_> {
             }
         }
         let p = &self.params;
+        let hits = &self.hits;
         if p.barrier_weight > 0.0 && p.objective == Objective::Paper {
             let (m, n, w) = (p.margin_m, p.steepness, p.barrier_weight);
-            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
-                geo.near_points(poses, shape, obstacle, m, |l, pt, d, grad| {
-                    let gap = 1.0 - d / m;
-                    let coeff = -w * n * gap.powf(n - 1.0) / m;
-                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
-                    for &a in geo.cols(l) {
-                        g[a] += coeff * grad.dot(&jac[a]);
-                    }
-                });
+            for hit in &hits.barrier {
+                let gap = 1.0 - hit.d / m;
+                let coeff = -w * n * gap.powf(n - 1.0) / m;
+                robot.world_point_jacobian(poses, LinkId(hit.link), &hit.point, jac);
+                for &a in geo.cols(hit.link as usize) {
+                    g[a] += coeff * hit.grad.dot(&jac[a]);
+                }
             }
         } else if p.barrier_weight > 0.0 {
             // d(w ((c − SDF)/s)²) = −2w (c − SDF)/s² ∇SDF.
             let (c, w) = (p.barrier_clearance_mm * 1e-3, p.barrier_weight);
-            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
-                geo.near_points(poses, shape, obstacle, c, |l, pt, d, grad| {
-                    let coeff = -2.0 * w * (c - d) / (DEPTH_SCALE_M * DEPTH_SCALE_M);
-                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
-                    for &k in geo.cols(l) {
-                        g[k] += coeff * grad.dot(&jac[k]);
-                    }
-                });
+            for hit in &hits.barrier {
+                let coeff = -2.0 * w * (c - hit.d) / (DEPTH_SCALE_M * DEPTH_SCALE_M);
+                robot.world_point_jacobian(poses, LinkId(hit.link), &hit.point, jac);
+                for &k in geo.cols(hit.link as usize) {
+                    g[k] += coeff * hit.grad.dot(&jac[k]);
+                }
             }
         }
-        if let (Some(shape), Some(obstacle)) = (self.surface_object, &self.surface_obstacle) {
+        if self.surface_obstacle.is_some() {
             let (m, w) = (p.margin_m, p.surface_penetration_weight);
-            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
+            for hit in &hits.surface {
                 // d(w (−d/m)²) = 2w d/m² ∇d.
-                let coeff = 2.0 * w * d / (m * m);
-                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
-                for &a in geo.cols(l) {
-                    g[a] += coeff * grad.dot(&jac[a]);
+                let coeff = 2.0 * w * hit.d / (m * m);
+                robot.world_point_jacobian(poses, LinkId(hit.link), &hit.point, jac);
+                for &a in geo.cols(hit.link as usize) {
+                    g[a] += coeff * hit.grad.dot(&jac[a]);
                 }
-            });
+            }
         }
-        if let (Some(sdf), Some(object_from_world)) = (geo.object, &self.object_from_world) {
+        if geo.object.is_some() && self.object_from_world.is_some() {
             let a = 0.5 * p.penetration_tolerance_mm * 1e-3;
             let w = p.penetration_weight;
-            geo.active_probes(sdf, poses, object_from_world, a, |l, c, depth, grad| {
+            for hit in &hits.probes {
                 // d(w ((depth − a)/s)²) = −2w (depth − a)/s² ∇φ.
-                let coeff = -2.0 * w * (depth - a) / (DEPTH_SCALE_M * DEPTH_SCALE_M);
-                robot.world_point_jacobian(poses, LinkId(l as u32), c, jac);
-                for &k in geo.cols(l) {
-                    g[k] += coeff * grad.dot(&jac[k]);
+                let coeff = -2.0 * w * (hit.d - a) / (DEPTH_SCALE_M * DEPTH_SCALE_M);
+                robot.world_point_jacobian(poses, LinkId(hit.link), &hit.point, jac);
+                for &k in geo.cols(hit.link as usize) {
+                    g[k] += coeff * hit.grad.dot(&jac[k]);
                 }
-            });
+            }
         }
     }
 }

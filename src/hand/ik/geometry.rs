@@ -1,11 +1,14 @@
 //! Obstacles of the IK: barrier shapes in the world and the object's signed distance field,
 //! with the culling that keeps the barrier and penetration terms cheap (bounding spheres per
-//! link, AABBs per barrier, probe clusters against the object field).
+//! link, AABBs per barrier, each link's probe tree against the object field).
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use rapier3d_f64::parry::math::Pose;
 
-use crate::geometry::ObjectSdf;
+use crate::geometry::{ObjectSdf, SphereTree};
+
+/// Most surface points in a leaf of a link's surface tree.
+const SURFACE_LEAF_SIZE: usize = 8;
 use crate::math::convert::{from_point, from_vec, to_point, to_pose};
 use crate::robot::{CollisionShape, LinkId, Robot, WRIST_DOF};
 
@@ -68,10 +71,10 @@ pub(super) struct Geometry<'a> {
     pub(super) barriers: &'a [CollisionShape],
     pub(super) barrier_obstacles: Vec<Obstacle>,
     pub(super) object: Option<&'a ObjectSdf>,
-    /// Per link: bounding sphere of its penetration probes (link frame); radius < 0 when none.
-    pub(super) probe_spheres: Vec<(Point3<f64>, f64)>,
     /// Per link: bounding sphere of its surface points (link frame); radius < 0 when none.
     pub(super) spheres: Vec<(Point3<f64>, f64)>,
+    /// Per link: the tree of its surface points (link frame).
+    pub(super) surface_trees: Vec<SphereTree>,
     /// Per link: range into `col_idx`.
     pub(super) col_range: Vec<(usize, usize)>,
     /// Non-zero Jacobian columns of each link, ascending: the wrist's 6, then its chain.
@@ -118,22 +121,22 @@ impl<'a> Geometry<'a> {
             col_idx.extend_from_slice(&cols);
             col_range.push((start, col_idx.len()));
         }
+        let surface_trees = robot
+            .links()
+            .iter()
+            .map(|l| SphereTree::new(&l.surface_points, |_| 0.0, SURFACE_LEAF_SIZE))
+            .collect();
         let barrier_obstacles = barriers
             .iter()
             .map(|b| Obstacle::new(b, &b.shape_pose))
-            .collect();
-        let probe_spheres = robot
-            .links()
-            .iter()
-            .map(|l| l.probes.bounding_sphere())
             .collect();
         Geometry {
             robot,
             barriers,
             barrier_obstacles,
             object,
-            probe_spheres,
             spheres,
+            surface_trees,
             col_range,
             col_idx,
         }
@@ -177,30 +180,82 @@ impl<'a> Geometry<'a> {
         }
     }
 
-    /// Smallest SDF from any hand surface point to any barrier [m] (branch and bound on
-    /// the bounding volumes); `None` without barriers.
-    pub(super) fn min_clearance(&self, poses: &[Isometry3<f64>]) -> Option<f64> {
+    /// Smallest SDF from any hand surface point to any barrier [m] (negative = inside);
+    /// `None` without barriers. Branch and bound: the bound starts at the points `seeds`
+    /// names (per barrier, the closest point of an earlier call, a close guess on the next
+    /// frame); then, per barrier, links are searched in the order of their spheres' distance
+    /// to the barrier's bounding volumes, each through its tree of surface points, so
+    /// barriers, links and points that cannot be closer cost no query. A distance to a
+    /// barrier's box or sphere bounds its SDF from below only when positive (a point inside
+    /// the box may be inside the barrier), so nothing is skipped on a bound of 0. A barrier's
+    /// seed is updated when it gives a new closest point; the result does not depend on
+    /// the seeds.
+    pub(super) fn min_clearance(
+        &self,
+        poses: &[Isometry3<f64>],
+        seeds: &mut [(u32, u32)],
+        order: &mut Vec<(f64, usize)>,
+    ) -> Option<f64> {
+        /// A lower bound of the SDF from a positive distance to a bounding volume.
+        fn outside(d: f64) -> f64 {
+            if d > 0.0 { d } else { f64::NEG_INFINITY }
+        }
         if self.barriers.is_empty() {
             return None;
         }
+        let links = self.robot.links();
         let mut best = f64::INFINITY;
-        for (shape, obstacle) in self.barriers.iter().zip(&self.barrier_obstacles) {
-            for (l, link) in self.robot.links().iter().enumerate() {
-                let (c, r) = self.spheres[l];
-                if r < 0.0 {
-                    continue;
+        for ((shape, obstacle), seed) in self
+            .barriers
+            .iter()
+            .zip(&self.barrier_obstacles)
+            .zip(&*seeds)
+        {
+            if let Some(s) = links
+                .get(seed.0 as usize)
+                .and_then(|l| l.surface_points.get(seed.1 as usize))
+            {
+                best = best.min(obstacle.sdf(shape, &(poses[seed.0 as usize] * s)).0);
+            }
+        }
+        for ((shape, obstacle), seed) in self
+            .barriers
+            .iter()
+            .zip(&self.barrier_obstacles)
+            .zip(seeds.iter_mut())
+        {
+            order.clear();
+            for (l, &(c, r)) in self.spheres.iter().enumerate() {
+                if r >= 0.0 {
+                    let cw = poses[l] * c;
+                    let spheres = (cw.coords - obstacle.center).norm() - r - obstacle.radius;
+                    let bound = outside(spheres.max(obstacle.aabb_distance(&cw) - r));
+                    order.push((bound, l));
                 }
-                let cw = poses[l] * c;
-                if (cw.coords - obstacle.center).norm() - r - obstacle.radius >= best {
-                    continue;
+            }
+            order.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for &(bound, l) in order.iter() {
+                if bound >= best {
+                    break;
                 }
-                for s in &link.surface_points {
-                    let p = poses[l] * s;
-                    if obstacle.aabb_distance(&p) >= best {
-                        continue;
-                    }
-                    best = best.min(obstacle.sdf(shape, &p).0);
-                }
+                let (pose, points) = (&poses[l], &links[l].surface_points);
+                best = self.surface_trees[l].minimize(
+                    best,
+                    |node| outside(obstacle.aabb_distance(&(pose * node.center)) - node.radius),
+                    |leaf, best| {
+                        for &k in leaf {
+                            let p = pose * points[k as usize];
+                            if outside(obstacle.aabb_distance(&p)) >= *best {
+                                continue;
+                            }
+                            let d = obstacle.sdf(shape, &p).0;
+                            if d < *best {
+                                *best = d;
+                                *seed = (l as u32, k);
+                            }
+                        }
+                    },
+                );
             }
         }
         Some(best)
@@ -219,28 +274,94 @@ impl<'a> Geometry<'a> {
     ) {
         let world_from_object = object_from_world.inverse();
         for (l, link) in self.robot.links().iter().enumerate() {
-            let (c, r) = self.probe_spheres[l];
-            if r < 0.0 {
-                continue;
-            }
             let to_object = object_from_world * poses[l];
-            if r - sdf.distance(&(to_object * c)) <= active {
-                continue;
-            }
-            for cluster in &link.probes.clusters {
-                if cluster.radius - sdf.distance(&(to_object * cluster.center)) <= active {
-                    continue;
-                }
-                for p in link.probes.of(cluster) {
-                    let local = to_object * p.point;
-                    let (phi, grad) = sdf.distance_and_gradient(&local);
-                    let depth = p.radius - phi;
-                    if depth > active {
-                        let world = poses[l] * p.point;
-                        f(l, &world, depth, &(world_from_object.rotation * grad));
+            link.probes
+                .visit_deeper(sdf, &to_object, active, |p, phi, grad| {
+                    let world = poses[l] * p.point;
+                    f(
+                        l,
+                        &world,
+                        p.radius - phi,
+                        &(world_from_object.rotation * grad),
+                    );
+                });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Limits;
+    use crate::robot::ShapeKind;
+    use nalgebra::{Translation3, UnitQuaternion};
+
+    /// `min_clearance` is the smallest SDF over every surface point and barrier, whatever
+    /// its seeds, with the hand away from the barriers, near them and inside one.
+    #[test]
+    fn min_clearance_is_the_smallest_over_every_point() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
+        let robot = Robot::from_urdf_file(&path, &Limits::default()).unwrap();
+        let barriers = [
+            CollisionShape::new(
+                ShapeKind::Box {
+                    size: Vector3::new(0.3, 0.2, 0.05),
+                },
+                Isometry3::translation(0.0, 0.0, -0.08),
+            )
+            .unwrap(),
+            CollisionShape::new(
+                ShapeKind::Cylinder {
+                    radius: 0.04,
+                    length: 0.1,
+                },
+                Isometry3::from_parts(
+                    Translation3::new(0.12, 0.05, 0.0),
+                    UnitQuaternion::from_euler_angles(0.3, 0.0, 0.0),
+                ),
+            )
+            .unwrap(),
+        ];
+        let geo = Geometry::new(&robot, &barriers, None);
+        let q = robot.neutral_q();
+        let mut poses = robot.new_link_poses();
+        let mut seeds = vec![(u32::MAX, u32::MAX); barriers.len()];
+        let mut order = Vec::new();
+        let mut inside = 0;
+        for k in 0..60 {
+            let s = k as f64 / 60.0;
+            let wrist = Isometry3::from_parts(
+                Translation3::new(0.2 * (s - 0.5), 0.1 * (4.0 * s).sin(), 0.12 - 0.2 * s),
+                UnitQuaternion::from_euler_angles(3.0 * s, -s, 2.0 * s),
+            );
+            robot.forward_kinematics(&wrist, &q, &mut poses);
+            let mut every = f64::INFINITY;
+            for (shape, obstacle) in barriers.iter().zip(&geo.barrier_obstacles) {
+                for (l, link) in robot.links().iter().enumerate() {
+                    for p in &link.surface_points {
+                        every = every.min(obstacle.sdf(shape, &(poses[l] * p)).0);
                     }
                 }
             }
+            if every < 0.0 {
+                inside += 1;
+            }
+            // Seeds from the previous pose, and none.
+            assert_eq!(
+                geo.min_clearance(&poses, &mut seeds, &mut order),
+                Some(every),
+                "pose {k}"
+            );
+            let mut fresh = vec![(u32::MAX, u32::MAX); barriers.len()];
+            assert_eq!(
+                geo.min_clearance(&poses, &mut fresh, &mut order),
+                Some(every),
+                "pose {k}"
+            );
         }
+        assert!(
+            inside > 5 && inside < 55,
+            "poses inside a barrier: {inside} of 60"
+        );
     }
 }

@@ -25,7 +25,8 @@ impl IkSolver<'_> {
     }
 
     /// Fills `H` (full, symmetric) and `g` of the Gauss-Newton model at `self.poses`
-    /// (see the module docs for the rows).
+    /// (see the module docs for the rows), with the active points `self.hits` that
+    /// [`IkSolver::evaluate`] found there.
     pub(super) fn linearize(
         &mut self,
         object_pose: &Isometry3<f64>,
@@ -39,6 +40,7 @@ impl IkSolver<'_> {
         let geo = &self.geo;
         let robot = geo.robot;
         let poses = &self.poses[..];
+        let hits = &self.hits;
         let h = self.h.as_mut_slice();
         let g = self.g.as_mut_slice();
         let jac = &mut self.jac[..];
@@ -62,61 +64,57 @@ impl IkSolver<'_> {
         if p.barrier_weight > 0.0 && p.objective == Objective::Paper {
             let (m, half) = (p.margin_m, p.steepness / 2.0);
             let sw = p.barrier_weight.sqrt();
-            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
-                geo.near_points(poses, shape, obstacle, m, |l, pt, d, grad| {
-                    let gap = (1.0 - d / m).max(1e-9);
-                    let e = sw * gap.powf(half);
-                    let coeff = -sw * half * gap.powf(half - 1.0) / m;
-                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
-                    let cols = geo.cols(l);
-                    for &a in cols {
-                        row[a] = coeff * grad.dot(&jac[a]);
-                    }
-                    Self::add_row(h, g, n, cols, row, e);
-                });
+            for hit in &hits.barrier {
+                let gap = (1.0 - hit.d / m).max(1e-9);
+                let e = sw * gap.powf(half);
+                let coeff = -sw * half * gap.powf(half - 1.0) / m;
+                robot.world_point_jacobian(poses, LinkId(hit.link), &hit.point, jac);
+                let cols = geo.cols(hit.link as usize);
+                for &a in cols {
+                    row[a] = coeff * hit.grad.dot(&jac[a]);
+                }
+                Self::add_row(h, g, n, cols, row, e);
             }
         } else if p.barrier_weight > 0.0 {
             // The clearance hinge: e = sw (c − SDF)/s, ∂e/∂θ = −(sw/s) ∇SDFᵀ J.
             let c = p.barrier_clearance_mm * 1e-3;
             let sw = p.barrier_weight.sqrt();
-            for (shape, obstacle) in geo.barriers.iter().zip(&geo.barrier_obstacles) {
-                geo.near_points(poses, shape, obstacle, c, |l, pt, d, grad| {
-                    let e = sw * (c - d) / DEPTH_SCALE_M;
-                    robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
-                    let cols = geo.cols(l);
-                    for &a in cols {
-                        row[a] = -sw / DEPTH_SCALE_M * grad.dot(&jac[a]);
-                    }
-                    Self::add_row(h, g, n, cols, row, e);
-                });
+            for hit in &hits.barrier {
+                let e = sw * (c - hit.d) / DEPTH_SCALE_M;
+                robot.world_point_jacobian(poses, LinkId(hit.link), &hit.point, jac);
+                let cols = geo.cols(hit.link as usize);
+                for &a in cols {
+                    row[a] = -sw / DEPTH_SCALE_M * hit.grad.dot(&jac[a]);
+                }
+                Self::add_row(h, g, n, cols, row, e);
             }
         }
-        if let (Some(shape), Some(obstacle)) = (self.surface_object, &self.surface_obstacle) {
+        if self.surface_obstacle.is_some() {
             let m = p.margin_m;
             let sw = p.surface_penetration_weight.sqrt();
-            geo.near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
-                let e = sw * (-d) / m;
-                robot.world_point_jacobian(poses, LinkId(l as u32), pt, jac);
-                let cols = geo.cols(l);
+            for hit in &hits.surface {
+                let e = sw * (-hit.d) / m;
+                robot.world_point_jacobian(poses, LinkId(hit.link), &hit.point, jac);
+                let cols = geo.cols(hit.link as usize);
                 for &a in cols {
-                    row[a] = -sw / m * grad.dot(&jac[a]);
+                    row[a] = -sw / m * hit.grad.dot(&jac[a]);
                 }
                 Self::add_row(h, g, n, cols, row, e);
-            });
+            }
         }
-        if let (Some(sdf), Some(object_from_world)) = (geo.object, &self.object_from_world) {
+        if geo.object.is_some() && self.object_from_world.is_some() {
             let a = 0.5 * p.penetration_tolerance_mm * 1e-3;
             let sw = p.penetration_weight.sqrt();
-            geo.active_probes(sdf, poses, object_from_world, a, |l, c, depth, grad| {
+            for hit in &hits.probes {
                 // e = sw (depth − a)/s, depth = r − φ(c): ∂e/∂θ = −(sw/s) ∇φᵀ J_c.
-                let e = sw * (depth - a) / DEPTH_SCALE_M;
-                robot.world_point_jacobian(poses, LinkId(l as u32), c, jac);
-                let cols = geo.cols(l);
+                let e = sw * (hit.d - a) / DEPTH_SCALE_M;
+                robot.world_point_jacobian(poses, LinkId(hit.link), &hit.point, jac);
+                let cols = geo.cols(hit.link as usize);
                 for &k in cols {
-                    row[k] = -sw / DEPTH_SCALE_M * grad.dot(&jac[k]);
+                    row[k] = -sw / DEPTH_SCALE_M * hit.grad.dot(&jac[k]);
                 }
                 Self::add_row(h, g, n, cols, row, e);
-            });
+            }
         }
         if p.regularization > 0.0 {
             let rho = p.regularization;
@@ -143,20 +141,22 @@ impl IkSolver<'_> {
         }
     }
 
-    /// Levenberg-Marquardt (see the module docs). Returns (converged, iterations, eval,
-    /// whether the iteration cap ended it).
+    /// Levenberg-Marquardt (see the module docs) from `start`, the evaluation of the warm
+    /// start (with `self.poses` and `self.hits` at it). Returns (converged, iterations,
+    /// eval, whether the iteration cap ended it).
     pub(super) fn solve_lm(
         &mut self,
         object_pose: &Isometry3<f64>,
         contacts: &[ResolvedContact],
         wrist: &mut Isometry3<f64>,
         q: &mut [f64],
+        start: Eval,
     ) -> (bool, usize, Eval, bool) {
         let n = self.n;
         let nc = contacts.len();
         let cap = self.params.iteration_cap();
         let robot = self.geo.robot;
-        let mut cur = self.evaluate(false, object_pose, contacts, wrist, q);
+        let mut cur = start;
         let mut iterations = 0;
         let (mut mu, mut nu) = (MU_INIT, 2.0);
         let mut stale = true;
@@ -248,6 +248,7 @@ impl IkSolver<'_> {
                 *wrist = trial_wrist;
                 q.copy_from_slice(&self.q_trial);
                 std::mem::swap(&mut self.poses, &mut self.trial_poses);
+                std::mem::swap(&mut self.hits, &mut self.trial_hits);
                 cur = next;
                 mu *= (1.0 - (2.0 * gain - 1.0).powi(3)).max(1.0 / 3.0);
                 nu = 2.0;

@@ -406,6 +406,37 @@ impl Eval {
     }
 }
 
+/// A point where a term of `F` is active at one configuration, as [`IkSolver::evaluate`]
+/// found it, so the linearization at that configuration reuses it instead of querying the
+/// obstacles again.
+#[derive(Clone, Copy, Debug)]
+struct Hit {
+    link: u32,
+    /// World point (a surface point, or a probe centre).
+    point: Point3<f64>,
+    /// Barrier and surface terms: the signed distance; probes: the depth `r − φ(c)` [m].
+    d: f64,
+    /// World gradient of the distance.
+    grad: Vector3<f64>,
+}
+
+/// The active points of each term at one configuration, in the order the queries found
+/// them (so sums over them are the same as over the queries).
+#[derive(Clone, Debug, Default)]
+struct Hits {
+    barrier: Vec<Hit>,
+    surface: Vec<Hit>,
+    probes: Vec<Hit>,
+}
+
+impl Hits {
+    fn clear(&mut self) {
+        self.barrier.clear();
+        self.surface.clear();
+        self.probes.clear();
+    }
+}
+
 /// A per-frame contact IK solver with its preallocated workspace. Reuse one for many frames.
 #[derive(Debug)]
 pub struct IkSolver<'a> {
@@ -415,6 +446,13 @@ pub struct IkSolver<'a> {
     n: usize,
     poses: Vec<Isometry3<f64>>,
     trial_poses: Vec<Isometry3<f64>>,
+    /// The active points at `poses` and at `trial_poses` (swapped with them).
+    hits: Hits,
+    /// Per barrier, the hand's closest surface point in the last frame (link, point), and
+    /// the link order buffer of [`Geometry::min_clearance`].
+    clearance_seeds: Vec<(u32, u32)>,
+    clearance_order: Vec<(f64, usize)>,
+    trial_hits: Hits,
     jac: Vec<Vector3<f64>>,
     row: Vec<f64>,
     h: DMatrix<f64>,
@@ -453,6 +491,10 @@ impl<'a> IkSolver<'a> {
             n,
             poses: robot.new_link_poses(),
             trial_poses: robot.new_link_poses(),
+            hits: Hits::default(),
+            clearance_seeds: vec![(u32::MAX, u32::MAX); barriers.len()],
+            clearance_order: Vec::with_capacity(robot.link_count()),
+            trial_hits: Hits::default(),
             jac: vec![Vector3::zeros(); n],
             row: vec![0.0; n],
             h: DMatrix::zeros(n, n),
@@ -525,22 +567,25 @@ impl<'a> IkSolver<'a> {
             }
             _ => None,
         };
-        let f_start = self
-            .evaluate(false, object_pose, contacts, wrist, q)
-            .total(contacts.len());
+        let start = self.evaluate(false, object_pose, contacts, wrist, q);
+        let f_start = start.total(contacts.len());
         let (converged, iterations, eval, capped) = match self.params.solver {
-            Solver::Lm => self.solve_lm(object_pose, contacts, wrist, q),
-            Solver::Adam => self.solve_adam(object_pose, contacts, wrist, q),
+            Solver::Lm => self.solve_lm(object_pose, contacts, wrist, q, start),
+            Solver::Adam => self.solve_adam(object_pose, contacts, wrist, q, start),
         };
         let finite = wrist.translation.vector.iter().all(|v| v.is_finite())
             && wrist.rotation.coords.iter().all(|v| v.is_finite())
             && q.iter().all(|v| v.is_finite());
         let n = contacts.len();
+        // The active points are those of the returned configuration, except when Adam
+        // ran out of iterations and returned an earlier iterate.
+        let mut hits_current = !(self.params.solver == Solver::Adam && capped && !converged);
         let (stop, eval) = if !finite {
             // NaN or infinity is a reported event, never the output.
             *wrist = self.wrist0;
             q.copy_from_slice(&self.q0);
             let e = self.evaluate(false, object_pose, contacts, wrist, q);
+            hits_current = true;
             (StopReason::NonFinite, e)
         } else if converged {
             (StopReason::Converged, eval)
@@ -555,19 +600,40 @@ impl<'a> IkSolver<'a> {
         } else {
             (StopReason::LocalMinimum, eval)
         };
-        let need_poses = !self.geo.barriers.is_empty() || self.geo.object.is_some();
+        // The deepest probe and the smallest barrier clearance at the solution. `eval`'s own
+        // active points give them exactly when there are any (the deepest probe is deeper
+        // than the hinge start, the closest point within the barrier term's reach); only
+        // otherwise is the hand searched again.
+        let hits = hits_current.then_some(&self.hits);
+        let deepest_known = self.object_from_world.is_some() && eval.max_depth_m > 0.0;
+        let clearance_known = hits.is_some_and(|h| !h.barrier.is_empty());
+        let need_poses = (!self.geo.barriers.is_empty() && !clearance_known)
+            || (self.geo.object.is_some() && !deepest_known);
         if need_poses {
             self.geo.robot.forward_kinematics(wrist, q, &mut self.poses);
         }
         let clearance = if self.geo.barriers.is_empty() {
             None
+        } else if let Some(h) = hits.filter(|_| clearance_known) {
+            h.barrier.iter().map(|h| h.d).reduce(f64::min)
         } else {
-            self.geo.min_clearance(&self.poses)
+            self.geo.min_clearance(
+                &self.poses,
+                &mut self.clearance_seeds,
+                &mut self.clearance_order,
+            )
         };
-        let max_penetration_mm = self.geo.object.map_or(0.0, |sdf| {
-            crate::robot::probes::deepest(self.geo.robot, &self.poses, &object_pose.inverse(), sdf)
-                .map_or(0.0, |(d, _)| d * 1e3)
-        });
+        let max_penetration_mm = match self.geo.object {
+            None => 0.0,
+            Some(_) if deepest_known => eval.max_depth_m * 1e3,
+            Some(sdf) => crate::robot::probes::deepest(
+                self.geo.robot,
+                &self.poses,
+                &object_pose.inverse(),
+                sdf,
+            )
+            .map_or(0.0, |(d, _)| d * 1e3),
+        };
         FrameResult {
             converged: stop == StopReason::Converged,
             iterations,
@@ -604,7 +670,8 @@ impl<'a> IkSolver<'a> {
         self.target_m
     }
 
-    /// FK into `poses` (or `trial_poses`) and the objective's parts.
+    /// FK into `poses` (or `trial_poses`), the objective's parts, and the active points
+    /// into `hits` (or `trial_hits`).
     fn evaluate(
         &mut self,
         trial: bool,
@@ -614,13 +681,20 @@ impl<'a> IkSolver<'a> {
         q: &[f64],
     ) -> Eval {
         let hinge = self.hinge_start_m();
-        let poses = if trial {
-            &mut self.trial_poses
+        let (poses, hits) = if trial {
+            (&mut self.trial_poses, &mut self.trial_hits)
         } else {
-            &mut self.poses
+            (&mut self.poses, &mut self.hits)
         };
         self.geo.robot.forward_kinematics(wrist, q, poses);
         let poses = &poses[..];
+        hits.clear();
+        let hit = |l: usize, p: &Point3<f64>, d: f64, grad: &Vector3<f64>| Hit {
+            link: l as u32,
+            point: *p,
+            d,
+            grad: *grad,
+        };
         let mut e = Eval::default();
         for c in contacts {
             let d = (poses[c.link.index()] * c.hand_point - object_pose * c.object_point).norm();
@@ -634,17 +708,19 @@ impl<'a> IkSolver<'a> {
                 let (m, n) = (p.margin_m, p.steepness);
                 for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
                     self.geo
-                        .near_points(poses, shape, obstacle, m, |_, _, d, _| {
+                        .near_points(poses, shape, obstacle, m, |l, pt, d, grad| {
                             sum += (1.0 - d / m).powf(n);
+                            hits.barrier.push(hit(l, pt, d, grad));
                         });
                 }
             } else {
                 let c = p.barrier_clearance_mm * 1e-3;
                 for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
                     self.geo
-                        .near_points(poses, shape, obstacle, c, |_, _, d, _| {
+                        .near_points(poses, shape, obstacle, c, |l, pt, d, grad| {
                             let v = (c - d) / DEPTH_SCALE_M;
                             sum += v * v;
+                            hits.barrier.push(hit(l, pt, d, grad));
                         });
                 }
             }
@@ -654,8 +730,9 @@ impl<'a> IkSolver<'a> {
             let m = p.margin_m;
             let mut sum = 0.0;
             self.geo
-                .near_points(poses, shape, obstacle, 0.0, |_, _, d, _| {
+                .near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
                     sum += (d / m) * (d / m);
+                    hits.surface.push(hit(l, pt, d, grad));
                 });
             e.penetration = p.surface_penetration_weight * sum;
         }
@@ -663,10 +740,11 @@ impl<'a> IkSolver<'a> {
             let a = hinge;
             let (mut sum, mut deepest) = (0.0, 0.0f64);
             self.geo
-                .active_probes(sdf, poses, object_from_world, a, |_, _, depth, _| {
+                .active_probes(sdf, poses, object_from_world, a, |l, c, depth, grad| {
                     let v = (depth - a) / DEPTH_SCALE_M;
                     sum += v * v;
                     deepest = deepest.max(depth);
+                    hits.probes.push(hit(l, c, depth, grad));
                 });
             e.penetration = p.penetration_weight * sum;
             e.max_depth_m = deepest;
