@@ -4,29 +4,25 @@
 //! - `frame_3_5mm(lm|adam)`: one frame at 3.5 mm from a realistic warm start: the exact hand
 //!   of the previous input frame of a fast 30 fps demonstration (object and in-hand motion of
 //!   several mm per frame), cycling over the frames whose warm start misses the threshold.
-//! - `frame_3_5mm_non_penetrating`: the same frames with the default objective against the
-//!   cube's distance field (the synthetic grasp's object), so the penetration probes are
-//!   queried every evaluation.
 //! - `hand_stage_lm` / `hand_stage_adam`: `ik::run` over a 700-frame demonstration warped
 //!   through two waypoints (baseline hand as `init`), 3.5 mm.
 //!
-//! Targets (release): LM median < 100 µs per frame (< 50 µs with non-penetration on), the
-//! LM hand stage < 0.1 s. Before divan runs, `main` times both solvers in the same process
+//! Targets (release): LM median < 100 µs per frame, the LM hand stage < 0.1 s; with
+//! non-penetration on (the built-in configs below), < 50 µs per frame. Before divan runs, `main` times both solvers in the same process
 //! (hand stage at 10, 5 and 3.5 mm, and the per-frame problems) and prints the medians,
 //! iteration counts and Adam/LM ratios; then the IK stage of every built-in human-hand
 //! config at 3.5 mm, default objective (non-penetration on, barriers, the recording's stop
 //! targets), as `warp` runs it: median over runs of the stage's own clock, per frame of
-//! the contact segment. Run with `cargo bench --bench ik`.
+//! the contact segment. (The synthetic grasp has no object field: its contacts are the
+//! hand's own points, inside the cube, so non-penetration cannot be measured on it.) Run with `cargo bench --bench ik`.
 
 use std::hint::black_box;
 use std::sync::LazyLock;
 use std::time::Instant;
 
-use dexwarp::geometry::{ObjectSdf, SdfParams};
 use dexwarp::hand::ik::{self, IkSolver, Params, ResolvedContact, Solver};
 use dexwarp::hand::{HandPath, baseline};
 use dexwarp::pipeline::{self, Inputs, Options};
-use dexwarp::synth::objects::{ObjectKind, object_mesh};
 use dexwarp::warp::ObjectWarp;
 use dexwarp::warp::retime::RetimeMode;
 use nalgebra::{Isometry3, Vector3};
@@ -105,11 +101,6 @@ fn params(solver: Solver) -> Params {
         ..Params::default()
     }
 }
-
-/// The synthetic grasp's object (the cube) as a distance field.
-static CUBE: LazyLock<ObjectSdf> = LazyLock::new(|| {
-    ObjectSdf::new(object_mesh(ObjectKind::Cube), &SdfParams::default()).expect("cube field")
-});
 
 /// The built-in configs whose demonstration is the human hand's.
 const HUMAN_HAND_CONFIGS: [&str; 14] = [
@@ -246,29 +237,6 @@ fn main() {
         medians.push(m);
     }
     println!("frame Adam / LM: {:.1}x", medians[1] / medians[0]);
-    {
-        let mut ik = IkSolver::new(&g.robot, &[], Some(&*CUBE), params(Solver::Lm));
-        let (mut iterations, mut deepest) = (0, 0.0f64);
-        let mut solve_all = |iterations: &mut usize, deepest: &mut f64| {
-            for p in problems {
-                let (mut w, mut q) = (p.wrist, p.q.clone());
-                let r = ik.solve(&p.object, &p.contacts, &mut w, &mut q);
-                *iterations += r.iterations;
-                *deepest = deepest.max(r.max_penetration_mm);
-            }
-        };
-        solve_all(&mut iterations, &mut deepest);
-        let m = time(&mut || solve_all(&mut 0, &mut 0.0)) / problems.len() as f64;
-        println!(
-            "frame   lm 3.5 mm, non-penetrating (cube field): median {:7.2} µs per frame over \
-             {} frames; {:.2} iterations per frame, deepest probe {:.2} mm; vs without: {:.2}x",
-            m * 1e6,
-            problems.len(),
-            iterations as f64 / problems.len() as f64,
-            deepest,
-            m / medians[0]
-        );
-    }
     builtin_configs(9);
     divan::main();
 }
@@ -289,22 +257,6 @@ fn mean_distance_mm(g: &GraspDemo, p: &Problem) -> f64 {
 fn frame_3_5mm(bencher: divan::Bencher, solver: Solver) {
     let (g, problems) = &*FRAMES;
     let mut solver = IkSolver::new(&g.robot, &[], None, params(solver));
-    let mut next = 0;
-    bencher
-        .with_inputs(|| {
-            let p = &problems[next % problems.len()];
-            next += 1;
-            (p, p.wrist, p.q.clone())
-        })
-        .bench_local_values(|(p, mut w, mut q)| {
-            solver.solve(&p.object, &p.contacts, &mut w, &mut q)
-        });
-}
-
-#[divan::bench]
-fn frame_3_5mm_non_penetrating(bencher: divan::Bencher) {
-    let (g, problems) = &*FRAMES;
-    let mut solver = IkSolver::new(&g.robot, &[], Some(&*CUBE), params(Solver::Lm));
     let mut next = 0;
     bencher
         .with_inputs(|| {

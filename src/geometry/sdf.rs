@@ -36,8 +36,11 @@
 //!   ray-parity scan of each closed part along `z` (the lattice is offset by a tenth of a
 //!   micrometre so that no column runs exactly through a vertex on round coordinates).
 //!   Samples beyond a grid's band hold `±band`; a query whose cell touches one is passed on:
-//!   fine → coarse → (inside the object) the exact layer. Outside every band the value is a
-//!   lower bound (at least the coarse band), which is all a non-penetration test needs.
+//!   fine → coarse → (inside the object) the exact layer. The coarse grid is read first,
+//!   and answers alone where the fine grid would pass the query on anyway (its cell's
+//!   samples all at least `band + √3/2·h_coarse` out, or beyond the grid), so a query far
+//!   from the surface costs one lookup. Outside every band the value is a lower bound (at
+//!   least the coarse band), which is all a non-penetration test needs.
 //!
 //! **Error bound.** Trilinear interpolation of a 1-Lipschitz field errs by at most
 //! `√3·h/2`, by `O(h²κ)` on smooth patches of curvature `κ`, and most on the field's ridges
@@ -189,6 +192,9 @@ pub struct ObjectSdf {
     exact: ExactSdf,
     fine: Grid,
     coarse: Grid,
+    /// A coarse cell whose samples are all at least this far out [m] has only clamped fine
+    /// samples in it (see [`ObjectSdf::distance_and_gradient`]).
+    far: f32,
     mins: Vector3<f64>,
     maxs: Vector3<f64>,
     open_parts: usize,
@@ -225,11 +231,17 @@ impl ObjectSdf {
         );
         let (fine, parity_errors) = build_grid(&parts, &closed_flags, mins, maxs, params);
         let coarse = coarse_from_fine(&fine, &whole, params.coarse_band_m);
+        // Every fine cell lies in a coarse cell (the lattices coincide), and `φ` is
+        // 1-Lipschitz outside the object, so in a coarse cell whose samples are all at least
+        // `band + √3/2·h_coarse` out every fine sample is at least `band` out (clamped);
+        // 0.1 mm covers the samples' f32 rounding.
+        let far = (fine.band as f64 + 0.5 * 3f64.sqrt() * coarse.h + 1e-4) as f32;
         Some(ObjectSdf {
             mesh,
             exact: ExactSdf { whole, closed },
             fine,
             coarse,
+            far,
             mins,
             maxs,
             open_parts: closed_flags.iter().filter(|c| !**c).count(),
@@ -274,37 +286,56 @@ impl ObjectSdf {
     #[inline]
     pub fn distance(&self, p: &Point3<f64>) -> f64 {
         // The same layers and values as `distance_and_gradient`, without the gradients.
-        match self.fine.lookup::<false>(p) {
-            Lookup::Exact(v, _) => v,
-            Lookup::Clamped(v, _) if v < 0.0 => self.exact.surface_point(p).signed_distance,
-            _ => match self.coarse.lookup::<false>(p) {
-                Lookup::Clamped(v, _) if v < 0.0 => self.exact.surface_point(p).signed_distance,
-                Lookup::Exact(v, _) | Lookup::Clamped(v, _) | Lookup::Beyond(v, _) => v,
-            },
+        match self.layers::<false>(p) {
+            Some((v, _)) => v,
+            None => self.exact.surface_point(p).signed_distance,
         }
     }
 
     /// Signed distance [m] and its gradient (about unit, pointing out) at the object-frame
-    /// point `p` (see the module docs for which layer answers).
+    /// point `p` (see the module docs for which layer answers). The coarse grid is asked
+    /// first when `p` is far out: beyond it, or in a coarse cell whose fine samples are all
+    /// clamped, so that the fine grid would pass the query on anyway (same value, one
+    /// lookup instead of two; most queries of probe-tree nodes are there).
     pub fn distance_and_gradient(&self, p: &Point3<f64>) -> (f64, Vector3<f64>) {
-        match self.fine.lookup::<true>(p) {
-            Lookup::Exact(v, g) => (v, g),
-            Lookup::Clamped(v, _) if v < 0.0 => self.exact.distance_and_gradient(p),
-            _ => match self.coarse.lookup::<true>(p) {
-                Lookup::Clamped(v, _) if v < 0.0 => self.exact.distance_and_gradient(p),
-                Lookup::Exact(v, g) | Lookup::Clamped(v, g) | Lookup::Beyond(v, g) => (v, g),
+        self.layers::<true>(p)
+            .unwrap_or_else(|| self.exact.distance_and_gradient(p))
+    }
+
+    /// The grids' answer at `p` (the gradient only with `GRAD`), or `None` when the exact
+    /// layer must answer: the fine grid where its cell is in the band, else the coarse grid,
+    /// else (inside the object beyond both bands) the exact layer.
+    #[inline]
+    fn layers<const GRAD: bool>(&self, p: &Point3<f64>) -> Option<(f64, Vector3<f64>)> {
+        let coarse = self.coarse.lookup::<GRAD>(p);
+        match coarse {
+            Lookup::Beyond(v, g) => return Some((v, g)),
+            Lookup::Exact(v, g, least) | Lookup::Clamped(v, g, least) if least >= self.far => {
+                return Some((v, g));
+            }
+            _ => {}
+        }
+        match self.fine.lookup::<GRAD>(p) {
+            Lookup::Exact(v, g, _) => Some((v, g)),
+            Lookup::Clamped(v, _, _) if v < 0.0 => None,
+            _ => match coarse {
+                Lookup::Clamped(v, _, _) if v < 0.0 => None,
+                Lookup::Exact(v, g, _) | Lookup::Clamped(v, g, _) | Lookup::Beyond(v, g) => {
+                    Some((v, g))
+                }
             },
         }
     }
 }
 
 /// What a grid says at a point.
+#[derive(Clone, Copy)]
 enum Lookup {
-    /// Interpolated from samples inside the band.
-    Exact(f64, Vector3<f64>),
+    /// Interpolated from samples inside the band (value, gradient, least sample).
+    Exact(f64, Vector3<f64>, f32),
     /// Interpolated, but a sample of the cell lies beyond the band (clamped): outside the
     /// object a lower bound, inside to be asked of the exact layer.
-    Clamped(f64, Vector3<f64>),
+    Clamped(f64, Vector3<f64>, f32),
     /// Beyond the grid: a lower bound.
     Beyond(f64, Vector3<f64>),
 }
@@ -358,6 +389,7 @@ impl Grid {
             g.values[base + sz + sy + 1],
         ];
         let clamped = c.iter().any(|&x| x.abs() >= g.band * 0.999);
+        let least = c.iter().copied().fold(f32::INFINITY, f32::min);
         let c: [f64; 8] = c.map(f64::from);
         // Trilinear: along x, then y, then z; the gradient is its exact derivative.
         let x00 = c[0] + (c[1] - c[0]) * fx;
@@ -369,9 +401,9 @@ impl Grid {
         let v = y0 + (y1 - y0) * fz;
         if !GRAD {
             return if clamped {
-                Lookup::Clamped(v, Vector3::zeros())
+                Lookup::Clamped(v, Vector3::zeros(), least)
             } else {
-                Lookup::Exact(v, Vector3::zeros())
+                Lookup::Exact(v, Vector3::zeros(), least)
             };
         }
         let dx0 = (c[1] - c[0]) + ((c[3] - c[2]) - (c[1] - c[0])) * fy;
@@ -381,9 +413,9 @@ impl Grid {
         let dz = y1 - y0;
         let grad = Vector3::new(dx, dy, dz) * g.inv_h;
         if clamped {
-            Lookup::Clamped(v, grad)
+            Lookup::Clamped(v, grad, least)
         } else {
-            Lookup::Exact(v, grad)
+            Lookup::Exact(v, grad, least)
         }
     }
 }

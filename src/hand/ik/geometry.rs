@@ -149,13 +149,16 @@ impl<'a> Geometry<'a> {
     }
 
     /// Calls `f(link, p, sdf, ∇sdf)` for every hand surface point whose SDF to `obstacle`
-    /// is below `reach`.
+    /// is below `reach`, link by link and in each link's point order. A link's tree of
+    /// surface points skips the subtrees whose box distance is beyond `reach`; `scratch`
+    /// holds the candidates of one link.
     pub(super) fn near_points(
         &self,
         poses: &[Isometry3<f64>],
         shape: &CollisionShape,
         obstacle: &Obstacle,
         reach: f64,
+        scratch: &mut Vec<u32>,
         mut f: impl FnMut(usize, &Point3<f64>, f64, &Vector3<f64>),
     ) {
         for (l, link) in self.robot.links().iter().enumerate() {
@@ -163,12 +166,19 @@ impl<'a> Geometry<'a> {
             if r < 0.0 {
                 continue;
             }
-            let cw = poses[l] * c;
+            let pose = &poses[l];
+            let cw = pose * c;
             if (cw.coords - obstacle.center).norm() - r - obstacle.radius > reach {
                 continue;
             }
-            for s in &link.surface_points {
-                let p = poses[l] * s;
+            scratch.clear();
+            self.surface_trees[l].visit(
+                |node| obstacle.aabb_distance(&(pose * node.center)) - node.radius > reach,
+                |leaf| scratch.extend_from_slice(leaf),
+            );
+            scratch.sort_unstable();
+            for &k in scratch.iter() {
+                let p = pose * link.surface_points[k as usize];
                 if obstacle.aabb_distance(&p) > reach {
                     continue;
                 }

@@ -23,8 +23,16 @@
 //! nearest surface point), so every pair points into the object and fitting the pairs
 //! exactly presses the fingers in; the term makes "closer to the contacts" stop at the
 //! surface. [`Objective::Paper`] drops it: the paper's objective as printed, for
-//! reproducing its tables. Only probes that can matter are evaluated: a link's probe sphere,
-//! then each cluster's, is tested against `φ` (1-Lipschitz) before its probes are.
+//! reproducing its tables. Only probes that can matter are evaluated: each link's tree of
+//! probe spheres ([`crate::geometry::SphereTree`]) is tested against `φ` (1-Lipschitz) from
+//! the root down before the probes of a leaf are.
+//!
+//! **Query budget.** `evaluate` records the points where each term is active (barrier
+//! points within reach, probes past the hinge start) and the linearization at the same
+//! configuration reuses them, so one LM iteration queries the obstacles once (its trial
+//! point); a frame's warm start is evaluated once. The reported deepest probe and barrier
+//! clearance of a frame come from its last evaluation when it has active points, and
+//! otherwise from a branch and bound seeded by the previous frame's closest point.
 //!
 //! **Stop rule** (both solvers): a frame is *converged* when the mean contact distance is
 //! below `threshold_mm` and, with the non-penetration objective, no probe is deeper than
@@ -452,6 +460,8 @@ pub struct IkSolver<'a> {
     /// the link order buffer of [`Geometry::min_clearance`].
     clearance_seeds: Vec<(u32, u32)>,
     clearance_order: Vec<(f64, usize)>,
+    /// Candidate surface points of one link ([`Geometry::near_points`]).
+    near_scratch: Vec<u32>,
     trial_hits: Hits,
     jac: Vec<Vector3<f64>>,
     row: Vec<f64>,
@@ -494,6 +504,7 @@ impl<'a> IkSolver<'a> {
             hits: Hits::default(),
             clearance_seeds: vec![(u32::MAX, u32::MAX); barriers.len()],
             clearance_order: Vec::with_capacity(robot.link_count()),
+            near_scratch: Vec::new(),
             trial_hits: Hits::default(),
             jac: vec![Vector3::zeros(); n],
             row: vec![0.0; n],
@@ -707,21 +718,33 @@ impl<'a> IkSolver<'a> {
             if p.objective == Objective::Paper {
                 let (m, n) = (p.margin_m, p.steepness);
                 for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
-                    self.geo
-                        .near_points(poses, shape, obstacle, m, |l, pt, d, grad| {
+                    self.geo.near_points(
+                        poses,
+                        shape,
+                        obstacle,
+                        m,
+                        &mut self.near_scratch,
+                        |l, pt, d, grad| {
                             sum += (1.0 - d / m).powf(n);
                             hits.barrier.push(hit(l, pt, d, grad));
-                        });
+                        },
+                    );
                 }
             } else {
                 let c = p.barrier_clearance_mm * 1e-3;
                 for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
-                    self.geo
-                        .near_points(poses, shape, obstacle, c, |l, pt, d, grad| {
+                    self.geo.near_points(
+                        poses,
+                        shape,
+                        obstacle,
+                        c,
+                        &mut self.near_scratch,
+                        |l, pt, d, grad| {
                             let v = (c - d) / DEPTH_SCALE_M;
                             sum += v * v;
                             hits.barrier.push(hit(l, pt, d, grad));
-                        });
+                        },
+                    );
                 }
             }
             e.barrier = p.barrier_weight * sum;
@@ -729,11 +752,17 @@ impl<'a> IkSolver<'a> {
         if let (Some(shape), Some(obstacle)) = (self.surface_object, &self.surface_obstacle) {
             let m = p.margin_m;
             let mut sum = 0.0;
-            self.geo
-                .near_points(poses, shape, obstacle, 0.0, |l, pt, d, grad| {
+            self.geo.near_points(
+                poses,
+                shape,
+                obstacle,
+                0.0,
+                &mut self.near_scratch,
+                |l, pt, d, grad| {
                     sum += (d / m) * (d / m);
                     hits.surface.push(hit(l, pt, d, grad));
-                });
+                },
+            );
             e.penetration = p.surface_penetration_weight * sum;
         }
         if let (Some(sdf), Some(object_from_world)) = (self.geo.object, &self.object_from_world) {
