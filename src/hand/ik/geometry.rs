@@ -6,11 +6,11 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use rapier3d_f64::parry::math::Pose;
 
 use crate::geometry::{ObjectSdf, SphereTree};
+use crate::math::convert::{from_point, from_vec, to_point, to_pose};
+use crate::robot::{CollisionShape, LinkId, Robot, WRIST_DOF};
 
 /// Most surface points in a leaf of a link's surface tree.
 const SURFACE_LEAF_SIZE: usize = 8;
-use crate::math::convert::{from_point, from_vec, to_point, to_pose};
-use crate::robot::{CollisionShape, LinkId, Robot, WRIST_DOF};
 
 /// An obstacle prepared for point queries: parry pose and bounding volumes (world).
 #[derive(Clone, Debug)]

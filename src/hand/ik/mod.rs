@@ -456,13 +456,13 @@ pub struct IkSolver<'a> {
     trial_poses: Vec<Isometry3<f64>>,
     /// The active points at `poses` and at `trial_poses` (swapped with them).
     hits: Hits,
+    trial_hits: Hits,
     /// Per barrier, the hand's closest surface point in the last frame (link, point), and
     /// the link order buffer of [`Geometry::min_clearance`].
     clearance_seeds: Vec<(u32, u32)>,
     clearance_order: Vec<(f64, usize)>,
     /// Candidate surface points of one link ([`Geometry::near_points`]).
     near_scratch: Vec<u32>,
-    trial_hits: Hits,
     jac: Vec<Vector3<f64>>,
     row: Vec<f64>,
     h: DMatrix<f64>,
@@ -502,10 +502,10 @@ impl<'a> IkSolver<'a> {
             poses: robot.new_link_poses(),
             trial_poses: robot.new_link_poses(),
             hits: Hits::default(),
+            trial_hits: Hits::default(),
             clearance_seeds: vec![(u32::MAX, u32::MAX); barriers.len()],
             clearance_order: Vec::with_capacity(robot.link_count()),
             near_scratch: Vec::new(),
-            trial_hits: Hits::default(),
             jac: vec![Vector3::zeros(); n],
             row: vec![0.0; n],
             h: DMatrix::zeros(n, n),
