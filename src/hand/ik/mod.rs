@@ -714,38 +714,28 @@ impl<'a> IkSolver<'a> {
         }
         let p = &self.params;
         if p.barrier_weight > 0.0 {
+            // The paper's potential (1 − SDF/m)^n out to m, or the clearance hinge out to c.
+            let paper = p.objective == Objective::Paper;
+            let (m, n, c) = (p.margin_m, p.steepness, p.barrier_clearance_mm * 1e-3);
+            let reach = if paper { m } else { c };
             let mut sum = 0.0;
-            if p.objective == Objective::Paper {
-                let (m, n) = (p.margin_m, p.steepness);
-                for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
-                    self.geo.near_points(
-                        poses,
-                        shape,
-                        obstacle,
-                        m,
-                        &mut self.near_scratch,
-                        |l, pt, d, grad| {
-                            sum += (1.0 - d / m).powf(n);
-                            hits.barrier.push(hit(l, pt, d, grad));
-                        },
-                    );
-                }
-            } else {
-                let c = p.barrier_clearance_mm * 1e-3;
-                for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
-                    self.geo.near_points(
-                        poses,
-                        shape,
-                        obstacle,
-                        c,
-                        &mut self.near_scratch,
-                        |l, pt, d, grad| {
+            for (shape, obstacle) in self.geo.barriers.iter().zip(&self.geo.barrier_obstacles) {
+                self.geo.near_points(
+                    poses,
+                    shape,
+                    obstacle,
+                    reach,
+                    &mut self.near_scratch,
+                    |l, pt, d, grad| {
+                        sum += if paper {
+                            (1.0 - d / m).powf(n)
+                        } else {
                             let v = (c - d) / DEPTH_SCALE_M;
-                            sum += v * v;
-                            hits.barrier.push(hit(l, pt, d, grad));
-                        },
-                    );
-                }
+                            v * v
+                        };
+                        hits.barrier.push(hit(l, pt, d, grad));
+                    },
+                );
             }
             e.barrier = p.barrier_weight * sum;
         }
