@@ -22,3 +22,10 @@ pub use kinematics::{WRIST_DOF, apply_wrist_step};
 pub use model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};
 pub use probes::{Probe, Probes};
 pub use shape::{CollisionShape, ShapeKind, SurfaceSampling};
+
+/// `robots/human_hand.urdf` of this repository, loaded (the unit tests' hand).
+#[cfg(test)]
+pub(crate) fn test_human_hand() -> Robot {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
+    Robot::from_urdf_file(&path, &crate::Limits::default()).expect("human_hand loads")
+}

@@ -92,11 +92,6 @@ impl Probes {
         Probes { probes, tree }
     }
 
-    /// Bounding sphere of all probes (link frame); radius < 0 when there are none.
-    pub fn bounding_sphere(&self) -> (Point3<f64>, f64) {
-        self.tree.bounding_sphere()
-    }
-
     /// Calls `f(probe, φ, ∇φ)` (object frame) for every probe deeper than `active` [m] in
     /// the object, `r − φ(c) > active`, in the tree's leaf order; `to_object` maps the link
     /// frame to the object frame. A subtree whose sphere cannot reach that depth costs one
@@ -162,9 +157,8 @@ pub fn deepest(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Limits;
     use crate::geometry::SdfParams;
-    use crate::robot::{LinkId, Robot};
+    use crate::robot::LinkId;
     use crate::synth::objects::{ObjectKind, object_mesh};
     use nalgebra::{Translation3, UnitQuaternion};
 
@@ -173,8 +167,7 @@ mod tests {
     /// that put the palm and fingers in, at and away from the apple.
     #[test]
     fn tree_queries_match_every_probe() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
-        let robot = Robot::from_urdf_file(&path, &Limits::default()).unwrap();
+        let robot = crate::robot::test_human_hand();
         let sdf = ObjectSdf::new(object_mesh(ObjectKind::Apple), &SdfParams::default()).unwrap();
         let mut q = robot.neutral_q();
         for (i, v) in q.iter_mut().enumerate() {
@@ -229,8 +222,7 @@ mod tests {
     /// Every probe is in exactly one leaf, and every node's sphere holds its probes' balls.
     #[test]
     fn tree_covers_every_probe_once() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
-        let robot = Robot::from_urdf_file(&path, &Limits::default()).unwrap();
+        let robot = crate::robot::test_human_hand();
         for link in robot.links() {
             let (t, probes) = (&link.probes.tree, &link.probes.probes);
             let mut sorted = t.order.clone();

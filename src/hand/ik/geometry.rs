@@ -71,9 +71,8 @@ pub(super) struct Geometry<'a> {
     pub(super) barriers: &'a [CollisionShape],
     pub(super) barrier_obstacles: Vec<Obstacle>,
     pub(super) object: Option<&'a ObjectSdf>,
-    /// Per link: bounding sphere of its surface points (link frame); radius < 0 when none.
-    pub(super) spheres: Vec<(Point3<f64>, f64)>,
-    /// Per link: the tree of its surface points (link frame).
+    /// Per link: the tree of its surface points (link frame); its root is the link's
+    /// bounding sphere.
     pub(super) surface_trees: Vec<SphereTree>,
     /// Per link: range into `col_idx`.
     pub(super) col_range: Vec<(usize, usize)>,
@@ -87,25 +86,9 @@ impl<'a> Geometry<'a> {
         barriers: &'a [CollisionShape],
         object: Option<&'a ObjectSdf>,
     ) -> Self {
-        let mut spheres = Vec::with_capacity(robot.link_count());
         let mut col_range = Vec::with_capacity(robot.link_count());
         let mut col_idx = Vec::new();
-        for (l, link) in robot.links().iter().enumerate() {
-            let pts = &link.surface_points;
-            if pts.is_empty() {
-                spheres.push((Point3::origin(), -1.0));
-            } else {
-                let (lo, hi) = pts.iter().fold(
-                    (
-                        Vector3::repeat(f64::INFINITY),
-                        Vector3::repeat(f64::NEG_INFINITY),
-                    ),
-                    |(lo, hi), p| (lo.inf(&p.coords), hi.sup(&p.coords)),
-                );
-                let c = Point3::from((lo + hi) / 2.0);
-                let r = pts.iter().map(|p| (p - c).norm()).fold(0.0, f64::max);
-                spheres.push((c, r));
-            }
+        for l in 0..robot.link_count() {
             let start = col_idx.len();
             let mut cols: Vec<usize> = (0..WRIST_DOF).collect();
             for &j in robot.chain(LinkId(l as u32)) {
@@ -135,7 +118,6 @@ impl<'a> Geometry<'a> {
             barriers,
             barrier_obstacles,
             object,
-            spheres,
             surface_trees,
             col_range,
             col_idx,
@@ -162,7 +144,7 @@ impl<'a> Geometry<'a> {
         mut f: impl FnMut(usize, &Point3<f64>, f64, &Vector3<f64>),
     ) {
         for (l, link) in self.robot.links().iter().enumerate() {
-            let (c, r) = self.spheres[l];
+            let (c, r) = self.surface_trees[l].bounding_sphere();
             if r < 0.0 {
                 continue;
             }
@@ -235,7 +217,8 @@ impl<'a> Geometry<'a> {
             .zip(seeds.iter_mut())
         {
             order.clear();
-            for (l, &(c, r)) in self.spheres.iter().enumerate() {
+            for (l, tree) in self.surface_trees.iter().enumerate() {
+                let (c, r) = tree.bounding_sphere();
                 if r >= 0.0 {
                     let cw = poses[l] * c;
                     let spheres = (cw.coords - obstacle.center).norm() - r - obstacle.radius;
@@ -302,7 +285,6 @@ impl<'a> Geometry<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Limits;
     use crate::robot::ShapeKind;
     use nalgebra::{Translation3, UnitQuaternion};
 
@@ -310,8 +292,7 @@ mod tests {
     /// its seeds, with the hand away from the barriers, near them and inside one.
     #[test]
     fn min_clearance_is_the_smallest_over_every_point() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
-        let robot = Robot::from_urdf_file(&path, &Limits::default()).unwrap();
+        let robot = crate::robot::test_human_hand();
         let barriers = [
             CollisionShape::new(
                 ShapeKind::Box {

@@ -985,13 +985,11 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Limits;
     use crate::robot::ShapeKind;
     use nalgebra::{Translation3, UnitQuaternion};
 
     fn hand() -> Robot {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("robots/human_hand.urdf");
-        Robot::from_urdf_file(&path, &Limits::default()).expect("human_hand loads")
+        crate::robot::test_human_hand()
     }
 
     /// The analytic gradient of `F` (Adam) and the LM model gradient `2g` (IRLS, so it
