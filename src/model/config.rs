@@ -83,6 +83,9 @@ pub struct WarpParams {
     /// `paper` (chord length without a floor, as the paper's reference code; the built-in
     /// configs use it) or `speed` (the demonstration's speed profile).
     pub retime: RetimeMode,
+    /// `chord` and `paper`: the object's speed is continuous at the waypoints (default true;
+    /// `false`: constant speed per segment, jumping at every waypoint, as the paper).
+    pub continuous_speed: bool,
     /// Bounding radius of the hand about the wrist for the hand's barrier push-out outside
     /// the contact segment [m] (`hand::pushout`); 0 turns it off. Default 0.05.
     pub hand_radius_m: f64,
@@ -105,6 +108,7 @@ impl Default for WarpParams {
             penetration_tolerance_mm: None,
             warm_start: WarmStart::FollowObject,
             retime: RetimeMode::Chord,
+            continuous_speed: true,
             hand_radius_m: crate::hand::pushout::DEFAULT_RADIUS_M,
             end_t_new: None,
         }
@@ -126,6 +130,7 @@ impl WarpParams {
             },
             retime: retime::Params {
                 mode: self.retime,
+                continuous_speed: self.continuous_speed,
                 ..retime::Params::default()
             },
         }
