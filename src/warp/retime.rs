@@ -19,6 +19,13 @@
 //!      length over its original length (ε = 1 mm, ratio clamped to [1/8, 8]), so the
 //!      demonstration's own speed profile is kept where the path is not stretched. An identity
 //!      warp gives the identity timewarp exactly.
+//!
+//!    Under `chord` and `paper` the object runs each segment at its constant mean speed, which
+//!    jumps at every waypoint. With [`Params::continuous_speed`] (the default) each segment's
+//!    progress is spread over its time by a monotone cubic ease instead, so the speed at an
+//!    anchor is the same on both sides (the harmonic mean of the two segments' mean speeds;
+//!    the untouched frames' own speed at the contact window's ends). Anchors, durations and
+//!    the frames' order along the path are unchanged.
 //! 2. One global cubic B-spline (C²) interpolates the warped positions of the contact segment
 //!    at parameters `τ(frame)` (frames closer than [`MIN_SPLINE_GAP`] output frames to the
 //!    previous fitted one are left out of the fit: under `paper` they rest, and nearly equal
