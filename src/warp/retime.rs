@@ -428,7 +428,11 @@ impl Ease {
 /// (at most twice the slower one, 0 when either rests); at the contact window's ends it is the
 /// speed of the untouched frames outside (the recording's own, usually at rest). A segment that
 /// does not move keeps constant speed.
-fn segment_eases(positions: &[Vector3<f64>], plan: &WarpPlan, params: &Params) -> Vec<Option<Ease>> {
+fn segment_eases(
+    positions: &[Vector3<f64>],
+    plan: &WarpPlan,
+    params: &Params,
+) -> Vec<Option<Ease>> {
     let segments = plan.anchors.len().saturating_sub(1);
     if !params.continuous_speed || params.mode == RetimeMode::Speed {
         return vec![None; segments];
@@ -441,12 +445,20 @@ fn segment_eases(positions: &[Vector3<f64>], plan: &WarpPlan, params: &Params) -
         .collect();
     let (c0, c1) = (plan.segment.start, plan.segment.end);
     let before = if c0 > 0 { step(c0 - 1) } else { 0.0 };
-    let after = if c1 + 1 < positions.len() { step(c1) } else { 0.0 };
+    let after = if c1 + 1 < positions.len() {
+        step(c1)
+    } else {
+        0.0
+    };
     let mut nodes = Vec::with_capacity(segments + 1);
     nodes.push(before);
     for w in speeds.windows(2) {
         let sum = w[0] + w[1];
-        nodes.push(if sum > 0.0 { 2.0 * w[0] * w[1] / sum } else { 0.0 });
+        nodes.push(if sum > 0.0 {
+            2.0 * w[0] * w[1] / sum
+        } else {
+            0.0
+        });
     }
     nodes.push(after);
     speeds
@@ -603,10 +615,18 @@ mod tests {
             let c = run(&path.positions, &path, &plan, &constant).unwrap();
             for out in [&a, &c] {
                 let tau = &out.timewarp.tau;
-                assert!(tau.windows(2).all(|w| w[1] > w[0]), "{mode:?}: τ not increasing");
+                assert!(
+                    tau.windows(2).all(|w| w[1] > w[0]),
+                    "{mode:?}: τ not increasing"
+                );
                 assert_eq!((tau[10], tau[50], tau[90]), (10.0, 30.0, 90.0));
                 assert!(out.stats.max_anchor_error_m < 1e-9, "{mode:?}");
-                assert!(out.path.positions.iter().all(|p| p.x > -1e-6 && p.x < 0.2 + 1e-6));
+                assert!(
+                    out.path
+                        .positions
+                        .iter()
+                        .all(|p| p.x > -1e-6 && p.x < 0.2 + 1e-6)
+                );
             }
             // Constant speed jumps from 0 to 5 mm per frame at the start, and to 1.67 at the
             // waypoint; the ease spreads both changes over the segments. Its largest is at the
@@ -616,12 +636,19 @@ mod tests {
                 largest_speed_change(&c, 10, 90),
                 largest_speed_change(&a, 10, 90),
             );
-            assert!(jump > 2.5e-3, "{mode:?}: constant speed changed by {jump} at most");
-            assert!(eased_jump < 1.4e-3, "{mode:?}: eased speed changed by {eased_jump}");
+            assert!(
+                jump > 2.5e-3,
+                "{mode:?}: constant speed changed by {jump} at most"
+            );
+            assert!(
+                eased_jump < 1.4e-3,
+                "{mode:?}: eased speed changed by {eased_jump}"
+            );
             // At the waypoint the eased speed is the harmonic mean of the segments' (2.5 mm
             // per frame): the steps on either side differ by their half-frame of easing, not
             // by the 3.3 mm per frame of constant speed.
-            let step = |out: &Output, t: usize| (out.path.positions[t + 1] - out.path.positions[t]).norm();
+            let step =
+                |out: &Output, t: usize| (out.path.positions[t + 1] - out.path.positions[t]).norm();
             let central = 0.5 * (step(&a, 29) + step(&a, 30));
             assert!((central - 2.5e-3).abs() < 0.3e-3, "{mode:?}: {central}");
             assert!((step(&a, 29) - step(&a, 30)).abs() < 0.6e-3, "{mode:?}");
@@ -631,14 +658,24 @@ mod tests {
 
     #[test]
     fn ease_is_a_strictly_increasing_bijection_of_the_unit_interval() {
-        for (a, b) in [(0.0, 0.0), (0.0, 2.0), (2.0, 0.0), (2.0, 2.0), (1.0, 1.0), (0.3, 1.7)] {
+        for (a, b) in [
+            (0.0, 0.0),
+            (0.0, 2.0),
+            (2.0, 0.0),
+            (2.0, 2.0),
+            (1.0, 1.0),
+            (0.3, 1.7),
+        ] {
             let e = Ease { a, b };
             assert_eq!((e.progress(0.0), e.progress(1.0)), (0.0, 1.0));
             let mut last = -1.0;
             for i in 0..=1000 {
                 let w = i as f64 / 1000.0;
                 let g = e.progress(w);
-                assert!(g > last, "g({w}) = {g} not above {last} for a = {a}, b = {b}");
+                assert!(
+                    g > last,
+                    "g({w}) = {g} not above {last} for a = {a}, b = {b}"
+                );
                 assert!((e.time_of(g) - w).abs() < 1e-9, "a = {a}, b = {b}, w = {w}");
                 last = g;
             }
