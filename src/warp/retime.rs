@@ -522,7 +522,11 @@ mod tests {
     /// 100 frames, contact 10..=90; the object rests on 10..=30 and 70..=90 and moves 0.4 m at
     /// constant speed in between.
     fn rest_move_rest() -> (ObjectPath, WarpPlan) {
-        let x = |i: usize| 0.01 * (i.clamp(30, 70) - 30) as f64;
+        along_x(|i| 0.01 * (i.clamp(30, 70) - 30) as f64)
+    }
+
+    /// 100 frames, contact 10..=90, the object at `x(frame)` on the x axis, no waypoints.
+    fn along_x(x: impl Fn(usize) -> f64) -> (ObjectPath, WarpPlan) {
         let positions: Vec<Vector3<f64>> = (0..100).map(|i| Vector3::new(x(i), 0.0, 0.0)).collect();
         let path = ObjectPath {
             rotations: vec![UnitQuaternion::identity(); positions.len()],
@@ -588,18 +592,7 @@ mod tests {
         // 0.2 m over input frames 10..=90 at constant speed, resting outside; the waypoint
         // puts input frame 50 at output frame 30: the first half runs 2x faster, the second
         // 0.67x (mean speeds 5 and 1.67 mm per frame).
-        let x = |i: usize| 0.0025 * (i.clamp(10, 90) - 10) as f64;
-        let positions: Vec<Vector3<f64>> = (0..100).map(|i| Vector3::new(x(i), 0.0, 0.0)).collect();
-        let path = ObjectPath {
-            rotations: vec![UnitQuaternion::identity(); positions.len()],
-            positions,
-        };
-        let segment = ContactSegment {
-            start: 10,
-            end: 90,
-            gap_frames: 0,
-        };
-        let mut plan = WarpPlan::identity(&path.positions, segment);
+        let (path, mut plan) = along_x(|i| 0.0025 * (i.clamp(10, 90) - 10) as f64);
         let mut mid = plan.anchors[0].clone();
         (mid.t, mid.t_new, mid.position) = (50, 30, path.positions[50]);
         plan.anchors.insert(1, mid);
