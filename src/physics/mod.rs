@@ -118,6 +118,29 @@
 //! stability samples in parallel (rayon); both are independent of the replay's state, so
 //! the report is the same to the bit.
 //!
+//! Why the solver cannot be made much cheaper from our side: Rapier 0.36 solves contacts in
+//! SIMD chunks of four manifolds whose bodies must differ, and every hand-object manifold
+//! shares the one dynamic body, the object (kinematic links do not count). So each lands in
+//! a chunk of its own, and three of its four lanes are padding
+//! (`staged_island_solver/init.rs`: "ungroupable => 1-lane chunks"). The solver's
+//! arithmetic is four times what the contacts need, and no setting of ours changes that.
+//!
+//! The settings that would make it cheaper all change what physics says. Measured with
+//! `physics_regression_timing` (`tests/it/physics_regression.rs`) over the 23 regression
+//! trajectories (test profile, one machine, one session). The default's median replay was
+//! 0.485 s in one run and 0.603 s in another:
+//!
+//! | setting | median replay | verdicts changed |
+//! |---|---:|---:|
+//! | Rapier prediction distance 6 mm (default 20 mm) | 0.305 s | 1 |
+//! | Rapier prediction distance 2 mm | 0.279 s | 3 |
+//! | 1/120 s steps with 8 substeps (the same substep length) | 0.395 s | 3 |
+//! | 2 substeps (default 4) | 0.362 s | 4 |
+//!
+//! A teapot verdict changed under every one of them, the apple's under two, a mug's under
+//! one: grasps near the edge. Mean position errors moved by up to 76 mm. None of these
+//! settings is adopted.
+//!
 //! A replay near the edge of holding is chaotic: the last-bit differences of a quaternion
 //! renormalization turn fryingpan_onto_shelf `--hand baseline` from a pass into a slip at
 //! frame 258. [`margin`] replays a passing trajectory under lower friction and higher mass

@@ -354,3 +354,75 @@ fn margins_of_the_base_demonstrations() {
         assert_eq!(m.robust, m.conditions.iter().all(|c| c.passed), "{name}");
     }
 }
+
+/// The regression trajectories replayed one after another with the physics parameters of
+/// `DEXWARP_PHYSICS_PARAMS` (a JSON object of [`Params`] fields; the defaults without it),
+/// each line the captured figures against today's and the stage times: the measurement
+/// behind a physics speed change. The totals leave out the object's decomposition and
+/// distance field (cached per process and on disk). Run on demand with
+/// `DEXWARP_PHYSICS_PARAMS='{"prediction_distance_m":0.005}' cargo test --test it
+/// physics_regression_timing -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn physics_regression_timing() {
+    let params: Params = match std::env::var("DEXWARP_PHYSICS_PARAMS") {
+        Ok(text) => serde_json::from_str(&text).expect("DEXWARP_PHYSICS_PARAMS: Params fields"),
+        Err(_) => Params::default(),
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let cases = cases(dir.path());
+    let captured: Captured =
+        serde_json::from_str(&std::fs::read_to_string(data_path()).unwrap()).unwrap();
+    println!(
+        "{:<44} {:>9} {:>15} {:>15} {:>13} {:>7} {:>7} {:>7} {:>7}",
+        "trajectory",
+        "verdict",
+        "mean err [mm]",
+        "max err [mm]",
+        "stab [mm]",
+        "replay",
+        "pen",
+        "stab",
+        "total"
+    );
+    let (mut replay, mut total) = (Vec::new(), Vec::new());
+    let mut changed = 0;
+    for (c, b) in cases.iter().zip(&captured.cases) {
+        let r = replay_file(&c.path, &params);
+        let a = figures(&c.name, &r);
+        let t = &r.timing_s;
+        replay.push(t.replay);
+        total.push(t.total - t.decomposition);
+        if a.verdict != b.verdict {
+            changed += 1;
+        }
+        println!(
+            "{:<44} {:>4}/{:<4} {:>7.2}/{:<7.2} {:>7.2}/{:<7.2} {:>6.2}/{:<6.2} {:>7.3} {:>7.3} {:>7.3} {:>7.3}",
+            c.name,
+            b.verdict,
+            a.verdict,
+            b.mean_position_error_mm,
+            a.mean_position_error_mm,
+            b.max_position_error_mm,
+            a.max_position_error_mm,
+            b.stability_max_mm.unwrap_or(0.0),
+            a.stability_max_mm.unwrap_or(0.0),
+            t.replay,
+            t.penetration,
+            t.stability,
+            t.total - t.decomposition,
+        );
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    println!(
+        "verdicts changed: {changed}; replay median {:.3} s mean {:.3} s; total without decomposition median {:.3} s mean {:.3} s",
+        median(&mut replay.clone()),
+        mean(&replay),
+        median(&mut total.clone()),
+        mean(&total)
+    );
+}
