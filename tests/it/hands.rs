@@ -363,12 +363,11 @@ fn community_shadow_synth_warp_and_physics() {
     let dir = tempfile::tempdir().unwrap();
     let demo = synth(&urdf, "cube", dir.path(), &[]);
     assert_eq!(json(&demo)["wrist_link"], "palm");
-    // The apple's original: after the release the apple rolls 10 mm on the table.
     check_hand(
         &urdf,
         &[
             ("cube", "cube_messy", Some("pass"), Some("pass")),
-            ("apple", "allegro_apple_plate", None, Some("pass")),
+            ("apple", "allegro_apple_plate", Some("pass"), Some("pass")),
         ],
     );
 }
@@ -379,12 +378,13 @@ fn community_inspire_synth_warp_and_physics() {
         return;
     };
     // Its link names match our Allegro's template, which does not fit it: the grasp comes
-    // from the kinematics. The apple's warp: mean rotation error 15.5° against 15°.
+    // from the kinematics. The apple turns in its grasp: mean rotation error 15.7° in the
+    // original and 15.6° in the warp, against 15°.
     check_hand(
         &urdf,
         &[
             ("cube", "cube_messy", Some("pass"), Some("pass")),
-            ("apple", "allegro_apple_plate", Some("pass"), None),
+            ("apple", "allegro_apple_plate", None, None),
         ],
     );
 }
