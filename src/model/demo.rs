@@ -345,8 +345,8 @@ impl Demo {
     /// parsing: serde_json's `float_roundtrip`), so the loader sees the same values either
     /// way (test `one_verdict::warp_replays_exactly_the_file_validate_reads`, on every
     /// built-in config and both hand methods); for the 20 MB output of teapot_pour_cups the
-    /// text took 0.21 s, the rest 0.006 s (medians of 5, release). Paths are written relative to [`Demo::source`]'s folder and resolved
-    /// back from it.
+    /// text took 0.21 s, the rest 0.006 s (medians of 5, release). Paths are written
+    /// relative to [`Demo::source`]'s folder and resolved back from it.
     pub fn as_stored(&self, limits: &Limits) -> Result<Demo> {
         let path = &self.source;
         Demo::from_file(self.to_file(path), path, limits)

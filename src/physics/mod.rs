@@ -128,7 +128,9 @@
 //! The settings that would make it cheaper all change what physics says. Measured with
 //! `physics_regression_timing` (`tests/it/physics_regression.rs`) over the 23 regression
 //! trajectories (test profile, one machine, one session). The default's median replay was
-//! 0.485 s in one run and 0.603 s in another:
+//! 0.485 s in one run and 0.603 s in another. The prediction distance (Rapier's
+//! `normalized_prediction_distance`) was set through a parameter added for the measurement
+//! and removed after it:
 //!
 //! | setting | median replay | verdicts changed |
 //! |---|---:|---:|

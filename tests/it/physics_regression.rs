@@ -356,23 +356,36 @@ fn margins_of_the_base_demonstrations() {
 }
 
 /// The regression trajectories replayed one after another with the physics parameters of
-/// `DEXWARP_PHYSICS_PARAMS` (a JSON object of [`Params`] fields; the defaults without it),
-/// each line the captured figures against today's and the stage times: the measurement
-/// behind a physics speed change. The totals leave out the object's decomposition and
-/// distance field (cached per process and on disk). Run on demand with
-/// `DEXWARP_PHYSICS_PARAMS='{"prediction_distance_m":0.005}' cargo test --test it
+/// `DEXWARP_PHYSICS_PARAMS` (a JSON object of [`Params`] fields, each of which must be one;
+/// the defaults without it), each line the captured figures against today's and the stage
+/// times: the measurement behind a physics speed change. The totals leave out the object's
+/// decomposition and distance field (cached per process and on disk). Run on demand with
+/// `DEXWARP_PHYSICS_PARAMS='{"solver_iterations":2}' cargo test --test it
 /// physics_regression_timing -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn physics_regression_timing() {
     let params: Params = match std::env::var("DEXWARP_PHYSICS_PARAMS") {
-        Ok(text) => serde_json::from_str(&text).expect("DEXWARP_PHYSICS_PARAMS: Params fields"),
+        Ok(text) => {
+            // `Params` reads unknown fields as nothing: a misspelt one would time the defaults.
+            let given: serde_json::Value = serde_json::from_str(&text).unwrap();
+            let known = serde_json::to_value(Params::default()).unwrap();
+            for key in given.as_object().expect("a JSON object").keys() {
+                assert!(known.get(key).is_some(), "{key:?} is not a Params field");
+            }
+            serde_json::from_value(given).expect("DEXWARP_PHYSICS_PARAMS: Params fields")
+        }
         Err(_) => Params::default(),
     };
     let dir = tempfile::tempdir().unwrap();
     let cases = cases(dir.path());
     let captured: Captured =
         serde_json::from_str(&std::fs::read_to_string(data_path()).unwrap()).unwrap();
+    assert_eq!(
+        cases.iter().map(|c| &c.name).collect::<Vec<_>>(),
+        captured.cases.iter().map(|f| &f.name).collect::<Vec<_>>(),
+        "the set of trajectories changed"
+    );
     println!(
         "{:<44} {:>9} {:>15} {:>15} {:>13} {:>7} {:>7} {:>7} {:>7}",
         "trajectory",
@@ -413,16 +426,12 @@ fn physics_regression_timing() {
             t.total - t.decomposition,
         );
     }
-    let median = |v: &mut Vec<f64>| {
+    let stats = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
+        (v[v.len() / 2], v.iter().sum::<f64>() / v.len() as f64)
     };
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let ((rm, ra), (tm, ta)) = (stats(&mut replay), stats(&mut total));
     println!(
-        "verdicts changed: {changed}; replay median {:.3} s mean {:.3} s; total without decomposition median {:.3} s mean {:.3} s",
-        median(&mut replay.clone()),
-        mean(&replay),
-        median(&mut total.clone()),
-        mean(&total)
+        "verdicts changed: {changed}; replay median {rm:.3} s mean {ra:.3} s; total without decomposition median {tm:.3} s mean {ta:.3} s"
     );
 }
