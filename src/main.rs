@@ -282,6 +282,11 @@ enum Command {
         /// Redo samples that are already finished.
         #[arg(long)]
         force: bool,
+        /// Also run every sample with the SE(3) baseline hand (rigid transfer) on the same
+        /// object trajectory: its verdict and D_C per sample in samples.csv, its yield and the
+        /// paired counts in stats.json and index.html (about twice the time).
+        #[arg(long)]
+        compare_baseline: bool,
         /// Combine the shard files found in these folders into DIR (--out).
         #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with_all = ["demo", "variations", "count", "shard"])]
         merge: Vec<PathBuf>,
@@ -846,6 +851,7 @@ fn run(cli: Cli) -> Result<()> {
             jobs,
             shard,
             force,
+            compare_baseline,
             merge,
         } => {
             let aug = if merge.is_empty() {
@@ -861,6 +867,7 @@ fn run(cli: Cli) -> Result<()> {
                     jobs,
                     shard,
                     force,
+                    compare_baseline,
                     limits,
                     progress: true,
                 })?
@@ -887,6 +894,19 @@ fn run(cli: Cli) -> Result<()> {
                 s.timing.samples_per_hour,
                 out.join(file).display()
             );
+            if let Some(b) = &s.baseline {
+                let p = &b.paired;
+                eprintln!(
+                    "baseline hand: {} kept of {} ran (yield {:.1} %); paired: both {}, only contact IK {}, only baseline {}, neither {}",
+                    b.passed,
+                    b.ran,
+                    b.yield_ * 100.0,
+                    p.both,
+                    p.only_contact_ik,
+                    p.only_baseline,
+                    p.neither
+                );
+            }
             Ok(())
         }
         Command::Export {

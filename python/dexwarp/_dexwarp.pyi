@@ -201,5 +201,8 @@ def augment(
     jobs: int = 0,
     shard: Optional[str] = None,
     force: bool = False,
+    compare_baseline: bool = False,
 ) -> dict[str, Any]:
-    """``dexwarp augment``: N sampled variations run with physics into out/; stats.json."""
+    """``dexwarp augment``: N sampled variations run with physics into out/; stats.json.
+    ``compare_baseline`` also runs each sample with the SE(3) baseline hand
+    (``stats["baseline"]``: its yield and the paired counts)."""

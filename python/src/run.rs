@@ -230,9 +230,10 @@ pub fn validate<'py>(
 /// `dexwarp augment`: samples `count` variations of the demonstration file `demo` from the
 /// spec `variations` (`dexwarp.variations/1`), runs each with physics into `out/kept/` and
 /// `out/failed/` and returns `stats.json` as a dict. `shard` is "K/N"; `jobs` 0 means one
-/// worker per core.
+/// worker per core. `compare_baseline` also runs every sample with the SE(3) baseline hand
+/// (`stats["baseline"]`: its yield and the paired counts).
 #[pyfunction]
-#[pyo3(signature = (demo, variations, *, count, out, seed=0, jobs=0, shard=None, force=false))]
+#[pyo3(signature = (demo, variations, *, count, out, seed=0, jobs=0, shard=None, force=false, compare_baseline=false))]
 pub fn augment<'py>(
     py: Python<'py>,
     demo: PathBuf,
@@ -243,6 +244,7 @@ pub fn augment<'py>(
     jobs: usize,
     shard: Option<&str>,
     force: bool,
+    compare_baseline: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let shard = shard
         .map(|s| {
@@ -259,6 +261,7 @@ pub fn augment<'py>(
         jobs,
         shard,
         force,
+        compare_baseline,
         limits: Limits::default(),
         progress: false,
     };

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::stats::{Metric, Row, Stats};
+use super::stats::{BaselineStats, Metric, Row, Stats};
 use crate::Result;
 use crate::model::json::write_atomic;
 
@@ -130,6 +130,49 @@ fn num(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".into(), |x| format!("{x:.digits$}"))
 }
 
+/// Contact IK against the SE(3) baseline on the same samples (`--compare-baseline`).
+fn baseline_section(b: &BaselineStats) -> String {
+    let p = &b.paired;
+    let mut h = format!(
+        "<h2>Contact IK against the SE(3) baseline</h2>\n<p class=\"note\">every sample that ran, run again with the rigidly transferred hand on the same object trajectory and judged by the same rule</p>\n<table><tr><th>baseline: ran</th><th>kept</th><th>failed</th><th>yield</th><th>both kept</th><th>only contact IK</th><th>only baseline</th><th>neither</th></tr>\n<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
+        b.ran,
+        b.passed,
+        b.failed,
+        b.yield_ * 100.0,
+        p.both,
+        p.only_contact_ik,
+        p.only_baseline,
+        p.neither
+    );
+    h.push_str("<table><tr><th>D_C [mm], same samples</th><th>n</th><th>contact IK median</th><th>p90</th><th>baseline median</th><th>p90</th></tr>\n");
+    for (what, pair) in [
+        ("whole contact segment", &b.d_c_mm),
+        (
+            "stretched segments (duration ×2 or more)",
+            &b.d_c_stretched_mm,
+        ),
+    ] {
+        h.push_str(&format!(
+            "<tr><td>{what}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+            pair.contact_ik.n,
+            num(pair.contact_ik.median, 2),
+            num(pair.contact_ik.p90, 2),
+            num(pair.baseline.median, 2),
+            num(pair.baseline.p90, 2)
+        ));
+    }
+    h.push_str("</table>\n");
+    let bars: Vec<(String, u64)> = b
+        .failed_by_reason
+        .iter()
+        .map(|(k, v)| (k.clone(), *v))
+        .collect();
+    h.push_str("<figure>\n");
+    h.push_str(&bar_chart("why the baseline's samples failed", &bars));
+    h.push_str("\n</figure>\n");
+    h
+}
+
 /// Writes `out/index.html`.
 pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
     let mut body = format!(
@@ -153,6 +196,9 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
         num(stats.original_d_c_mm, 2),
         num(stats.kept.get("d_c_mm").and_then(|s| s.median), 2),
     ));
+    if let Some(b) = &stats.baseline {
+        body.push_str(&baseline_section(b));
+    }
     let mut bars: Vec<(String, u64)> = Vec::new();
     for (prefix, map) in [
         ("physics", &stats.failed_by_physics_reason),
@@ -193,7 +239,7 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
             rows.len()
         ));
     }
-    body.push_str("<table>\n<tr><th>sample</th><th>status</th><th>waypoints</th><th>barriers</th><th>threshold [mm]</th><th>D_C [mm]</th><th>ΔD_WO [mm]</th><th>PLR</th><th>timewarp</th><th>files</th><th>reasons</th></tr>\n");
+    body.push_str("<table>\n<tr><th>sample</th><th>status</th><th>waypoints</th><th>barriers</th><th>threshold [mm]</th><th>D_C [mm]</th><th>ΔD_WO [mm]</th><th>PLR</th><th>timewarp</th><th>stretch</th><th>baseline</th><th>baseline D_C [mm]</th><th>files</th><th>reasons</th></tr>\n");
     for r in rows.iter().take(TABLE_ROWS) {
         let files = if r.status == "rejected" {
             String::new()
@@ -204,7 +250,7 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
             )
         };
         body.push_str(&format!(
-            "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{files}</td><td class=\"why\">{}</td></tr>\n",
+            "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{files}</td><td class=\"why\">{}</td></tr>\n",
             escape(&r.id),
             escape(&r.status),
             escape(&r.status),
@@ -215,6 +261,10 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
             num(r.d_wo_change_mm, 1),
             num(r.plr_object, 3),
             num(r.timewarp_discrepancy, 3),
+            num(r.stretch_max, 2),
+            escape(&r.baseline_status),
+            escape(&r.baseline_status),
+            num(r.baseline_d_c_mm, 2),
             escape(&r.detail)
         ));
     }

@@ -14,6 +14,7 @@
 //! `stats.shard-K-of-N.json` only; [`merge`] combines shards into the four files.
 
 use std::collections::BTreeMap;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -23,14 +24,14 @@ use serde::{Deserialize, Serialize};
 use super::page;
 use super::sampler::{Context, Sample, sample};
 use super::spec::Spec;
-use super::stats::{Row, RunId, Stats, Timing, classify};
+use super::stats::{Row, RunId, STRETCHED, Stats, Timing, classify};
 use crate::batch::Shard;
 use crate::model::Demo;
 use crate::model::demo::relative_path;
 use crate::model::json::{read_json, write_atomic, write_json_atomic};
 use crate::model::report::{REPORT_FORMAT, Report};
 use crate::output::progress;
-use crate::pipeline::{self, Inputs, Options};
+use crate::pipeline::{self, HandMethod, Inputs, Options};
 use crate::{Error, Limits, Result};
 
 /// The `format` value of `augment.json`.
@@ -59,6 +60,8 @@ pub struct AugmentOptions {
     pub jobs: usize,
     pub shard: Option<Shard>,
     pub force: bool,
+    /// Also run every sample with the SE(3) baseline hand (see [`super::stats`]).
+    pub compare_baseline: bool,
     pub limits: Limits,
     pub progress: bool,
 }
@@ -217,11 +220,52 @@ fn base_row(s: &Sample) -> Row {
         waypoints: s.config.waypoints.len(),
         barriers: s.config.barriers.len(),
         threshold_mm: s.config.params.threshold_mm,
+        stretch_max: s.duration_factors.iter().copied().reduce(f64::max),
         ..Row::default()
     }
 }
 
-fn fill(row: &mut Row, report: &Report, spec: &Spec) {
+/// The output frames of the sample's stretched segments (duration factor at least
+/// [`STRETCHED`]).
+fn stretched_frames(s: &Sample) -> Vec<std::ops::Range<usize>> {
+    s.duration_factors
+        .iter()
+        .zip(s.anchors_t_new.windows(2))
+        .filter(|(f, _)| **f >= STRETCHED)
+        .map(|(_, w)| w[0]..w[1])
+        .collect()
+}
+
+/// Mean of the `d_c_mm` column of a `frames.csv` over the output frames in `ranges`; `None`
+/// when there are no such frames with a D_C, or the file does not read.
+fn mean_d_c_over(frames_csv: &Path, ranges: &[std::ops::Range<usize>]) -> Option<f64> {
+    #[derive(Deserialize)]
+    struct Frame {
+        frame: usize,
+        d_c_mm: Option<f64>,
+    }
+    if ranges.is_empty() {
+        return None;
+    }
+    let mut r = csv::Reader::from_path(frames_csv).ok()?;
+    let (mut sum, mut n) = (0.0, 0usize);
+    for f in r.deserialize::<Frame>() {
+        let f = f.ok()?;
+        if let Some(d) = f.d_c_mm
+            && ranges.iter().any(|r| r.contains(&f.frame))
+        {
+            sum += d;
+            n += 1;
+        }
+    }
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// The report and frames of the baseline hand in a sample's folder (`--compare-baseline`).
+const BASELINE_REPORT: &str = "baseline.report.json";
+const BASELINE_FRAMES: &str = "baseline.frames.csv";
+
+fn fill(row: &mut Row, report: &Report, spec: &Spec, dir: &Path, stretched: &[Range<usize>]) {
     let (status, keys, words) = classify(report, &spec.file.keep);
     row.status = status.into();
     row.reasons = keys.join(";");
@@ -235,6 +279,23 @@ fn fill(row: &mut Row, report: &Report, spec: &Spec) {
         row.timewarp_discrepancy = Some(m.timewarp_discrepancy);
         row.converged_fraction = report.ik.as_ref().map(|i| i.converged_fraction);
         row.frames_out = Some(report.frames_out);
+        row.d_c_stretched_mm = mean_d_c_over(&dir.join("frames.csv"), stretched);
+    }
+}
+
+fn fill_baseline(
+    row: &mut Row,
+    report: &Report,
+    spec: &Spec,
+    dir: &Path,
+    stretched: &[Range<usize>],
+) {
+    let (status, keys, _) = classify(report, &spec.file.keep);
+    row.baseline_status = status.into();
+    row.baseline_reasons = keys.join(";");
+    if report.error.is_none() {
+        row.baseline_d_c_mm = Some(report.metrics.d_c_mm.warped);
+        row.baseline_d_c_stretched_mm = mean_d_c_over(&dir.join(BASELINE_FRAMES), stretched);
     }
 }
 
@@ -242,6 +303,15 @@ fn read_report(path: &Path) -> Option<Report> {
     std::fs::read(path)
         .ok()
         .and_then(|b| serde_json::from_slice::<Report>(&b).ok())
+}
+
+/// A report as a rerun will read it back: serde_json's default float parsing is not an exact
+/// round trip, and stats.json must not depend on whether a sample was skipped.
+fn as_read_back(report: Report) -> Report {
+    serde_json::to_vec(&report)
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .unwrap_or(report)
 }
 
 fn run_sample(
@@ -262,26 +332,33 @@ fn run_sample(
         stages.insert("sample".into(), clock.elapsed().as_secs_f64());
         return (row, stages, Ran::No);
     }
+    let stretched = stretched_frames(&s);
     let kept = out.join("kept").join(&s.id);
     let failed = out.join("failed").join(&s.id);
     if !o.force {
         for dir in [&kept, &failed] {
-            if let Some(report) = read_report(&dir.join("report.json")) {
-                fill(&mut row, &report, spec);
-                return (row, BTreeMap::new(), Ran::Skipped);
+            let Some(report) = read_report(&dir.join("report.json")) else {
+                continue;
+            };
+            // A sample finished without the baseline runs again when the comparison is asked.
+            let baseline = read_report(&dir.join(BASELINE_REPORT));
+            if o.compare_baseline && baseline.is_none() {
+                continue;
             }
+            fill(&mut row, &report, spec, dir, &stretched);
+            if let (true, Some(b)) = (o.compare_baseline, &baseline) {
+                fill_baseline(&mut row, b, spec, dir, &stretched);
+            }
+            return (row, BTreeMap::new(), Ran::Skipped);
         }
     }
     stages.insert("sample".into(), clock.elapsed().as_secs_f64());
     let stage = out.join(".work").join(&s.id);
-    let report = execute(&s, ctx, o, &stage, &mut stages);
-    // Judge the report as a rerun will read it back: serde_json's default float parsing is
-    // not an exact round trip, and stats.json must not depend on whether a sample was skipped.
-    let report = serde_json::to_vec(&report)
-        .ok()
-        .and_then(|b| serde_json::from_slice(&b).ok())
-        .unwrap_or(report);
-    fill(&mut row, &report, spec);
+    let (report, baseline) = execute(&s, ctx, o, &stage, &mut stages);
+    fill(&mut row, &as_read_back(report), spec, &stage, &stretched);
+    if let Some(b) = baseline {
+        fill_baseline(&mut row, &as_read_back(b), spec, &stage, &stretched);
+    }
     let clock = Instant::now();
     let dest = if row.status == "kept" { &kept } else { &failed };
     let moved = (|| -> std::io::Result<()> {
@@ -302,73 +379,113 @@ fn run_sample(
     (row, stages, Ran::Now)
 }
 
-/// Writes the sample's files into `stage` and runs the pipeline there; always returns a
-/// report (with `error` set when something failed, which is then also written).
+/// Writes the sample's files into `stage` and runs the pipeline there with contact IK, and
+/// with `--compare-baseline` again with the baseline hand (its report and frames written as
+/// `baseline.report.json` and `baseline.frames.csv`: no other command takes them for an
+/// output of the run). Always returns a report per hand run (with `error` set when
+/// something failed, which is then also written).
 fn execute(
     s: &Sample,
     ctx: &Context,
     o: &AugmentOptions,
     stage: &Path,
     stages: &mut BTreeMap<String, f64>,
-) -> Report {
+) -> (Report, Option<Report>) {
     let clock = Instant::now();
-    let result = (|| -> Result<Report> {
-        if stage.exists() {
-            std::fs::remove_dir_all(stage).map_err(|e| Error::write(stage, e))?;
+    let inputs = match prepare(s, ctx, o, stage) {
+        Ok(inputs) => inputs,
+        Err(e) => {
+            let message = e.to_string();
+            let baseline = o
+                .compare_baseline
+                .then(|| error_report(s, "baseline", stage, BASELINE_REPORT, message.clone()));
+            return (
+                error_report(s, "contact", stage, "report.json", message),
+                baseline,
+            );
         }
-        std::fs::create_dir_all(stage).map_err(|e| Error::write(stage, e))?;
-        // Paths relative to the sample folder: `.work/<id>`, `kept/<id>` and `failed/<id>`
-        // are at the same depth, so they stay valid after the move.
-        let mut config = s.config.clone();
-        config.demo = relative_path(stage, &config.demo);
-        config.scene = if config.scene.is_absolute() {
-            relative_path(stage, &config.scene)
-        } else {
-            config.scene
-        };
-        if let Some(scene) = s.scene_file(ctx) {
-            write_json_atomic(&stage.join("scene.json"), &scene)?;
-        }
-        let config_path = stage.join("config.json");
-        write_json_atomic(&config_path, &config)?;
-        let inputs = Inputs::load(&config_path, None, &o.limits)?;
-        stages.insert("load".into(), clock.elapsed().as_secs_f64());
-        let mut run = pipeline::warp(
-            &inputs,
-            &Options {
-                physics: Some(crate::physics::Params::default()),
-                limits: o.limits,
-                ..Options::default()
-            },
-        )?;
-        for (k, v) in &run.report.timing_s {
-            stages.insert(k.clone(), *v);
-        }
+    };
+    stages.insert("load".into(), clock.elapsed().as_secs_f64());
+    let contact = (|| -> Result<Report> {
+        let mut run = pipeline::warp(&inputs, &sample_options(o, HandMethod::Contact))?;
+        stages.extend(run.report.timing_s.clone());
         let clock = Instant::now();
         run.report.config = Some("config.json".into());
         crate::output::write_run(stage, &run)?;
         stages.insert("write".into(), clock.elapsed().as_secs_f64());
         Ok(run.report)
-    })();
-    match result {
-        Ok(r) => r,
-        Err(e) => {
-            let report = Report {
-                format: REPORT_FORMAT.into(),
-                name: s.config.name.clone(),
-                config: Some("config.json".into()),
-                threshold_mm: Some(s.config.params.threshold_mm),
-                hand: Some("contact".into()),
-                error: Some(e.to_string()),
-                ..Report::default()
-            };
-            // Best effort: the row carries the error even when this write fails.
-            let _ = std::fs::create_dir_all(stage)
-                .map_err(|e| Error::write(stage, e))
-                .and_then(|_| write_json_atomic(&stage.join("report.json"), &report));
-            report
-        }
+    })()
+    .unwrap_or_else(|e| error_report(s, "contact", stage, "report.json", e.to_string()));
+    let baseline = o.compare_baseline.then(|| {
+        (|| -> Result<Report> {
+            let mut run = pipeline::warp(&inputs, &sample_options(o, HandMethod::Baseline))?;
+            for (k, v) in &run.report.timing_s {
+                stages.insert(format!("baseline.{k}"), *v);
+            }
+            let clock = Instant::now();
+            run.report.config = Some("config.json".into());
+            let frames = stage.join(BASELINE_FRAMES);
+            write_atomic(
+                &frames,
+                &crate::output::frames::csv_bytes(&frames, &run.frames)?,
+            )?;
+            write_json_atomic(&stage.join(BASELINE_REPORT), &run.report)?;
+            stages.insert("baseline.write".into(), clock.elapsed().as_secs_f64());
+            Ok(run.report)
+        })()
+        .unwrap_or_else(|e| error_report(s, "baseline", stage, BASELINE_REPORT, e.to_string()))
+    });
+    (contact, baseline)
+}
+
+/// The sample's config (and scene) written into `stage`, and the run's inputs loaded from it.
+fn prepare(s: &Sample, ctx: &Context, o: &AugmentOptions, stage: &Path) -> Result<Inputs> {
+    if stage.exists() {
+        std::fs::remove_dir_all(stage).map_err(|e| Error::write(stage, e))?;
     }
+    std::fs::create_dir_all(stage).map_err(|e| Error::write(stage, e))?;
+    // Paths relative to the sample folder: `.work/<id>`, `kept/<id>` and `failed/<id>`
+    // are at the same depth, so they stay valid after the move.
+    let mut config = s.config.clone();
+    config.demo = relative_path(stage, &config.demo);
+    config.scene = if config.scene.is_absolute() {
+        relative_path(stage, &config.scene)
+    } else {
+        config.scene
+    };
+    if let Some(scene) = s.scene_file(ctx) {
+        write_json_atomic(&stage.join("scene.json"), &scene)?;
+    }
+    let config_path = stage.join("config.json");
+    write_json_atomic(&config_path, &config)?;
+    Inputs::load(&config_path, None, &o.limits)
+}
+
+fn sample_options(o: &AugmentOptions, hand: HandMethod) -> Options {
+    Options {
+        hand,
+        physics: Some(crate::physics::Params::default()),
+        limits: o.limits,
+        ..Options::default()
+    }
+}
+
+/// A report carrying the error of a hand run (`hand`), also written to `stage/file`.
+fn error_report(s: &Sample, hand: &str, stage: &Path, file: &str, message: String) -> Report {
+    let report = Report {
+        format: REPORT_FORMAT.into(),
+        name: s.config.name.clone(),
+        config: Some("config.json".into()),
+        threshold_mm: Some(s.config.params.threshold_mm),
+        hand: Some(hand.into()),
+        error: Some(message),
+        ..Report::default()
+    };
+    // Best effort: the row carries the error even when this write fails.
+    let _ = std::fs::create_dir_all(stage)
+        .map_err(|e| Error::write(stage, e))
+        .and_then(|_| write_json_atomic(&stage.join(file), &report));
+    report
 }
 
 fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {

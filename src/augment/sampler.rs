@@ -11,7 +11,8 @@
 //!   `(c0, c1)`; positions in a world box, or `x(t_j) + (1−λ)·Δ0 + λ·Δ1 + o` with
 //!   `λ = (t_j − c0)/(c1 − c0)`, `Δ0`, `Δ1` the start and end displacements, `o` in the box.
 //! * retiming: segment `j` between anchors lasts `max(1, round(f_j·d_j))` output frames,
-//!   `f_j` uniform in `duration_factor`; the end's output frame is written as `end_t_new`.
+//!   `f_j` drawn from `duration_factor` independently per segment (uniform, or log-uniform
+//!   with `distribution: "log_uniform"`); the end's output frame is written as `end_t_new`.
 //! * barriers: the `items`, each of `optional_items` with its probability, and primitives at
 //!   `lerp(start, end, b) + o`, standing on the support below.
 //!
@@ -25,7 +26,7 @@ use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::spec::{BoxJson, PlaceJson, PrimitiveShape, Range, Spec};
+use super::spec::{BoxJson, FactorDistribution, PlaceJson, PrimitiveShape, Range, Spec};
 use crate::model::config::{AxisAngleJson, CONFIG_FORMAT, ConfigFile, WaypointJson};
 use crate::model::scene::{
     SCENE_FORMAT, SceneFile, SceneItem, SceneItemJson, ScenePoseJson, ShapeJson,
@@ -237,6 +238,9 @@ pub struct Sample {
     pub primitives: Vec<SceneItemJson>,
     /// Duration factor of each segment (start→w1, ..., wk→end).
     pub duration_factors: Vec<f64>,
+    /// Output frame of each anchor (start, waypoints, end): segment `j` is the output frames
+    /// `anchors_t_new[j]..anchors_t_new[j + 1]`.
+    pub anchors_t_new: Vec<usize>,
     pub rejection: Option<Rejection>,
 }
 
@@ -403,9 +407,13 @@ pub fn sample(spec: &Spec, ctx: &Context, seed: u64, index: u64) -> Sample {
         .collect();
     let factors: Vec<f64> = (0..anchors_t.len() - 1)
         .map(|_| {
-            f.retime
-                .as_ref()
-                .map_or(1.0, |r| uniform(&mut rng, r.duration_factor))
+            f.retime.as_ref().map_or(1.0, |r| match r.distribution {
+                FactorDistribution::Uniform => uniform(&mut rng, r.duration_factor),
+                FactorDistribution::LogUniform => {
+                    let [lo, hi] = r.duration_factor;
+                    uniform(&mut rng, [lo.ln(), hi.ln()]).exp()
+                }
+            })
         })
         .collect();
     let mut t_new = Vec::with_capacity(anchors_t.len());
@@ -566,6 +574,7 @@ pub fn sample(spec: &Spec, ctx: &Context, seed: u64, index: u64) -> Sample {
         config,
         primitives,
         duration_factors: factors,
+        anchors_t_new: t_new,
         rejection,
     }
 }

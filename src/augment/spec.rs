@@ -116,11 +116,31 @@ fn default_jitter() -> f64 {
 }
 
 /// Retiming: each segment between anchors (start, waypoints, end) lasts its input duration
-/// times a factor uniform in `duration_factor` (> 1 slows down), rounded to whole frames.
+/// times a factor drawn from `duration_factor` (> 1 slows down), independently per segment,
+/// rounded to whole frames.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RetimeJson {
     pub duration_factor: Range,
+    /// How the factor is drawn from its range.
+    #[serde(default)]
+    pub distribution: FactorDistribution,
+}
+
+/// The largest duration factor a spec may ask for.
+pub const MAX_DURATION_FACTOR: f64 = 100.0;
+
+/// How a duration factor is drawn from its range `[lo, hi]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FactorDistribution {
+    /// Uniform in `[lo, hi]`.
+    #[default]
+    Uniform,
+    /// Uniform in `[ln lo, ln hi]`: a range like `[0.3, 10]` compresses as often as it
+    /// stretches (a factor below 1 and one above it are equally likely when `lo·hi = 1`),
+    /// where a uniform draw would almost always stretch.
+    LogUniform,
 }
 
 /// Shape of a primitive barrier.
@@ -345,6 +365,16 @@ impl Spec {
         }
         if let Some(r) = &file.retime {
             check_range(&c, "retime.duration_factor", r.duration_factor, Some(0.0))?;
+            if r.duration_factor[1] > MAX_DURATION_FACTOR {
+                return Err(Error::invalid(
+                    c.path,
+                    "retime.duration_factor[1]",
+                    format!(
+                        "is {}; expected at most {MAX_DURATION_FACTOR} (a segment that many times its recorded duration)",
+                        r.duration_factor[1]
+                    ),
+                ));
+            }
         }
         if let Some(t) = file.threshold_mm {
             check_range(&c, "threshold_mm", t, Some(0.0))?;

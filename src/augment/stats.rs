@@ -9,6 +9,11 @@
 //! `ik:d_c_above_max`, `narrow_gap`, `error`. A failed sample counts once under each of its
 //! reasons, so the reason counts can add up to more than `failed`.
 //!
+//! With `--compare-baseline` every sample that ran is also run with the SE(3) baseline hand
+//! on the same object trajectory; its verdict by the same rule, its reasons and D_C are
+//! columns of the row, and `stats.json` gains a `baseline` object: its yield, reasons and
+//! the paired counts (both pass, only contact IK, only the baseline, neither).
+//!
 //! `stats.json` is a function of the rows alone, apart from its `timing` object (wall time,
 //! throughput, time per stage, samples skipped because they were already finished): two runs
 //! of the same spec, demonstration and seed give the same bytes outside `timing`.
@@ -46,7 +51,30 @@ pub struct Row {
     pub timewarp_discrepancy: Option<f64>,
     pub converged_fraction: Option<f64>,
     pub frames_out: Option<usize>,
+    /// The largest duration factor of the sample's segments (> 1 stretches).
+    #[serde(default)]
+    pub stretch_max: Option<f64>,
+    /// Mean D_C over the output frames of the stretched segments (duration factor at least
+    /// [`STRETCHED`]), when there are any [mm].
+    #[serde(default)]
+    pub d_c_stretched_mm: Option<f64>,
+    /// With `--compare-baseline`: the SE(3) baseline hand on the same object trajectory,
+    /// judged by the same rule (`kept` or `failed`; empty without the comparison).
+    #[serde(default)]
+    pub baseline_status: String,
+    /// The baseline's reason keys, separated by `;`.
+    #[serde(default)]
+    pub baseline_reasons: String,
+    #[serde(default)]
+    pub baseline_d_c_mm: Option<f64>,
+    #[serde(default)]
+    pub baseline_d_c_stretched_mm: Option<f64>,
 }
+
+/// A segment whose duration factor is at least this is *stretched*: its D_C is reported
+/// apart (`d_c_stretched_mm`), since that is where a rigidly transferred hand, interpolated
+/// between the few frames whose pose it knows, drifts off the object.
+pub const STRETCHED: f64 = 2.0;
 
 /// A per-sample figure of a row (`None` when the sample did not run).
 pub type Metric = fn(&Row) -> Option<f64>;
@@ -249,7 +277,99 @@ pub struct Stats {
     pub kept: BTreeMap<String, Summary>,
     /// The kept samples' median D_C is at most the demonstration's.
     pub kept_median_d_c_no_worse: Option<bool>,
+    /// With `--compare-baseline`: the SE(3) baseline hand on the same samples.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baseline: Option<BaselineStats>,
     pub timing: Timing,
+}
+
+/// The SE(3) baseline hand run on every sample that ran, judged by the same rule as contact
+/// IK (`stats.json` `baseline`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BaselineStats {
+    pub ran: u64,
+    pub passed: u64,
+    pub failed: u64,
+    /// Reason keys of the baseline's failures (`physics:dropped`, `narrow_gap`, ...), a
+    /// sample counted once under each.
+    pub failed_by_reason: BTreeMap<String, u64>,
+    /// `passed / attempts` (rejected samples count, as in contact IK's yield).
+    #[serde(rename = "yield")]
+    pub yield_: f64,
+    /// `passed / ran`.
+    pub pass_rate: f64,
+    /// Samples where both hands ran, by which passed.
+    pub paired: Paired,
+    /// D_C of both hands over the samples where both ran, and over their stretched segments
+    /// (duration factor at least 2) [mm].
+    pub d_c_mm: HandPair,
+    pub d_c_stretched_mm: HandPair,
+}
+
+/// The paired outcome of contact IK and the baseline on the same samples.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Paired {
+    pub both: u64,
+    pub only_contact_ik: u64,
+    pub only_baseline: u64,
+    pub neither: u64,
+}
+
+/// One figure's distribution for each hand, over the same samples.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HandPair {
+    pub contact_ik: Summary,
+    pub baseline: Summary,
+}
+
+impl BaselineStats {
+    /// The baseline's figures of `rows`, or `None` when no row has a baseline run.
+    fn of(rows: &[Row]) -> Option<BaselineStats> {
+        let ran: Vec<&Row> = rows
+            .iter()
+            .filter(|r| !r.baseline_status.is_empty())
+            .collect();
+        if ran.is_empty() {
+            return None;
+        }
+        let mut b = BaselineStats {
+            ran: ran.len() as u64,
+            ..BaselineStats::default()
+        };
+        for r in &ran {
+            let (contact, base) = (r.status == "kept", r.baseline_status == "kept");
+            if base {
+                b.passed += 1;
+            } else {
+                b.failed += 1;
+                for k in r.baseline_reasons.split(';').filter(|k| !k.is_empty()) {
+                    *b.failed_by_reason.entry(k.to_string()).or_default() += 1;
+                }
+            }
+            let p = &mut b.paired;
+            *match (contact, base) {
+                (true, true) => &mut p.both,
+                (true, false) => &mut p.only_contact_ik,
+                (false, true) => &mut p.only_baseline,
+                (false, false) => &mut p.neither,
+            } += 1;
+        }
+        b.yield_ = ratio(b.passed, rows.len() as u64);
+        b.pass_rate = ratio(b.passed, b.ran);
+        let pair = |contact: Metric, base: Metric| {
+            let both: Vec<(f64, f64)> = ran
+                .iter()
+                .filter_map(|r| Some((contact(r)?, base(r)?)))
+                .collect();
+            HandPair {
+                contact_ik: Summary::of(both.iter().map(|p| p.0)),
+                baseline: Summary::of(both.iter().map(|p| p.1)),
+            }
+        };
+        b.d_c_mm = pair(|r| r.d_c_mm, |r| r.baseline_d_c_mm);
+        b.d_c_stretched_mm = pair(|r| r.d_c_stretched_mm, |r| r.baseline_d_c_stretched_mm);
+        Some(b)
+    }
 }
 
 /// Identity of a run: what the figures are of.
@@ -328,6 +448,7 @@ impl Stats {
             (Some(m), Some(o)) => Some(m <= o),
             _ => None,
         };
+        s.baseline = BaselineStats::of(rows);
         s
     }
 }

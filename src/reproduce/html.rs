@@ -6,8 +6,10 @@
 //! Plots: the timewarp (input frame against output time, the paper's Allegro figure (c)); object
 //! and wrist height over time for the baseline against contact IK (the paper's baseline
 //! figure); per-frame D_C; per-frame physics tracking error; the robustness curves; for every
-//! `*_timewarp_stress*` config the paper's Fig. "naive" (object height, baseline wrist and
-//! contact-IK wrist over output time, τ's control points marked).
+//! `*_timewarp_stress*` config and for the config whose retiming stretches a segment the most,
+//! the paper's Fig. "naive" (object height, baseline wrist and contact-IK wrist over output
+//! time, τ's control points marked, the frames where either hand loses the object shaded),
+//! also written as `figures/naive_<config>.svg`.
 
 use std::path::Path;
 
@@ -40,6 +42,20 @@ fn line_chart_marked(
     y_label: &str,
     series: &[Series],
     marks: &[f64],
+) -> String {
+    line_chart_shaded(title, x_label, y_label, series, marks, &[])
+}
+
+/// [`line_chart_marked`] with bands shaded behind the lines: each `(frames, color)` shades
+/// `[f, f + 1)` for every listed x value `f` (sorted), the first in the lower half
+/// of the plot and the second in the upper half, so two sets stay apart where they overlap.
+fn line_chart_shaded(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    marks: &[f64],
+    shaded: &[(Vec<usize>, RGBColor)],
 ) -> String {
     let mut svg = String::new();
     {
@@ -75,6 +91,17 @@ fn line_chart_marked(
             .y_desc(y_label)
             .light_line_style(RGBColor(235, 235, 235))
             .draw();
+        let (lo, hi) = (y0 - pad, y1 + pad);
+        for (k, (frames, color)) in shaded.iter().enumerate() {
+            let (b0, b1) = if k % 2 == 0 {
+                (lo, (lo + hi) / 2.0)
+            } else {
+                ((lo + hi) / 2.0, hi)
+            };
+            let _ = chart.draw_series(spans(frames).into_iter().map(|(a, b)| {
+                Rectangle::new([(a as f64, b0), (b as f64, b1)], color.mix(0.18).filled())
+            }));
+        }
         for (k, &m) in marks.iter().enumerate() {
             let a = chart.draw_series(std::iter::once(PathElement::new(
                 vec![(m, y0 - pad), (m, y1 + pad)],
@@ -110,6 +137,18 @@ fn line_chart_marked(
         let _ = root.present();
     }
     svg
+}
+
+/// Runs of consecutive values of the sorted `frames` as half-open spans `[first, last + 1)`.
+fn spans(frames: &[usize]) -> Vec<(usize, usize)> {
+    let mut out: Vec<(usize, usize)> = Vec::new();
+    for &f in frames {
+        match out.last_mut() {
+            Some(last) if last.1 == f => last.1 = f + 1,
+            _ => out.push((f, f + 1)),
+        }
+    }
+    out
 }
 
 fn svg_error(title: &str) -> String {
@@ -191,13 +230,78 @@ fn control_points(rep: &Reproduction, config: &str, rows: &[FrameRow]) -> Vec<f6
     v
 }
 
-/// The paper's Fig. "naive" for every stress config: object height, baseline wrist and
-/// contact-IK wrist height over output time, τ's control points marked.
-fn stress_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
-    for c in tables::configs(rep)
-        .into_iter()
+/// How much the retiming stretches the config's most stretched segment: the largest
+/// `(τ(b) − τ(a)) / (b − a)` over the segments `[a, b]` between τ's input anchors (the
+/// contact segment's ends and the waypoints' `t`), from the contact-IK run's files.
+fn max_stretch(rep: &Reproduction, config: &str) -> Option<f64> {
+    let dir = run_dir(rep, config, "lm_3.5mm")?;
+    let tau = read_timewarp(&dir)?;
+    let rows = read_frames(&dir)?;
+    let contact: Vec<&FrameRow> = rows.iter().filter(|r| r.in_contact).collect();
+    let (c0, c1) = (contact.first()?.source_frame, contact.last()?.source_frame);
+    let path = rep
+        .runs
+        .iter()
+        .find(|r| r.config == config)
+        .and_then(|r| r.report.config.clone())?;
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
+    let mut anchors = vec![c0];
+    if let Some(ws) = json.get("waypoints").and_then(|w| w.as_array()) {
+        anchors.extend(
+            ws.iter()
+                .filter_map(|w| Some(w.get("t")?.as_f64()? as usize)),
+        );
+    }
+    anchors.push(c1);
+    anchors
+        .windows(2)
+        .filter(|w| w[1] > w[0] && w[1] < tau.len())
+        .map(|w| (tau[w[1]] - tau[w[0]]) / (w[1] - w[0]) as f64)
+        .reduce(f64::max)
+}
+
+/// The configs of the paper's Fig. "naive": every `*_timewarp_stress*` config, and the config
+/// whose retiming stretches one segment the most.
+fn naive_configs(rep: &Reproduction) -> Vec<String> {
+    let configs = tables::configs(rep);
+    let mut out: Vec<String> = configs
+        .iter()
         .filter(|c| c.contains("_timewarp_stress"))
+        .cloned()
+        .collect();
+    let most = configs
+        .iter()
+        .filter_map(|c| Some((c, max_stretch(rep, c)?)))
+        .max_by(|a, b| a.1.total_cmp(&b.1));
+    if let Some((c, _)) = most
+        && !out.contains(c)
     {
+        out.push(c.clone());
+    }
+    out
+}
+
+/// Output frames where the simulated object is off its plan by more than the drop limit or
+/// by more than the rotation limit: where a hand loses the object.
+fn failing_frames(rows: &[FrameRow]) -> Vec<usize> {
+    let p = crate::physics::Params::default();
+    rows.iter()
+        .filter(|r| {
+            r.physics_position_error_mm
+                .is_some_and(|e| e > p.drop_error_m * 1e3)
+                || r.physics_rotation_error_deg
+                    .is_some_and(|e| e > p.max_mean_rotation_error_deg)
+        })
+        .map(|r| r.frame)
+        .collect()
+}
+
+/// The paper's Fig. "naive" for each of [`naive_configs`]: object height, baseline wrist and
+/// contact-IK wrist height over output time, τ's control points marked, the frames where
+/// either hand loses the object shaded (orange: the baseline, blue: contact IK). Each is also
+/// written as `figures/naive_<config>.svg` beside the page.
+fn naive_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
+    for c in naive_configs(rep) {
         let lm = run_dir(rep, &c, "lm_3.5mm").and_then(|d| read_frames(&d));
         let base = run_dir(rep, &c, "baseline").and_then(|d| read_frames(&d));
         let (Some(lm), Some(base)) = (lm, base) else {
@@ -207,31 +311,40 @@ fn stress_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
         let z = |rows: &[FrameRow], f: fn(&FrameRow) -> f64| -> Vec<(f64, f64)> {
             rows.iter().map(|r| (r.frame as f64, f(r))).collect()
         };
+        let shaded = [(failing_frames(&base), ORANGE), (failing_frames(&lm), BLUE)];
+        let svg = line_chart_shaded(
+            &format!("object and wrist height: {c}"),
+            "output frame",
+            "z [m]",
+            &[
+                Series {
+                    label: "object",
+                    color: GREY,
+                    points: z(&lm, |r| r.object_z),
+                },
+                Series {
+                    label: "wrist, baseline",
+                    color: ORANGE,
+                    points: z(&base, |r| r.wrist_z),
+                },
+                Series {
+                    label: "wrist, contact IK",
+                    color: BLUE,
+                    points: z(&lm, |r| r.wrist_z),
+                },
+            ],
+            &marks,
+            &shaded,
+        );
+        let file = rep.out.join("figures").join(format!("naive_{c}.svg"));
+        let _ = std::fs::create_dir_all(rep.out.join("figures"));
+        let _ = write_atomic(&file, svg.as_bytes());
+        let (nb, nl) = (shaded[0].0.len(), shaded[1].0.len());
         out.push((
-            format!("Stress: heights over output time, baseline against contact IK ({c})"),
-            line_chart_marked(
-                &format!("object and wrist height: {c}"),
-                "output frame",
-                "z [m]",
-                &[
-                    Series {
-                        label: "object",
-                        color: GREY,
-                        points: z(&lm, |r| r.object_z),
-                    },
-                    Series {
-                        label: "wrist, baseline",
-                        color: ORANGE,
-                        points: z(&base, |r| r.wrist_z),
-                    },
-                    Series {
-                        label: "wrist, contact IK",
-                        color: BLUE,
-                        points: z(&lm, |r| r.wrist_z),
-                    },
-                ],
-                &marks,
+            format!(
+                "Fig. \"naive\": heights over output time, baseline against contact IK ({c}; object lost on {nb} frames with the baseline, {nl} with contact IK, shaded)"
             ),
+            svg,
         ));
     }
 }
@@ -390,7 +503,7 @@ fn plots(rep: &Reproduction) -> Vec<(String, String)> {
             ),
         ));
     }
-    stress_plots(rep, &mut out);
+    naive_plots(rep, &mut out);
     out
 }
 

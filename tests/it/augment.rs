@@ -175,6 +175,40 @@ fn samples_differ_between_indices_and_seeds() {
     assert_ne!(a.config, sample(spec, ctx, 2, 0).config);
 }
 
+/// A log-uniform duration factor compresses as often as it stretches when `lo·hi = 1`, and
+/// stays in its range; every segment draws its own.
+#[test]
+fn log_uniform_factors_compress_as_often_as_they_stretch() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("log.json");
+    let mut v = wide_spec();
+    v["retime"] =
+        serde_json::json!({"duration_factor": [0.1, 10.0], "distribution": "log_uniform"});
+    std::fs::write(&path, v.to_string()).unwrap();
+    let limits = Limits::default();
+    let spec = Spec::load(&path, &limits).unwrap();
+    let demo_path = repo("scenes/demos/cube.demo.json");
+    let demo = Demo::load(&demo_path, &limits).unwrap();
+    let ctx = Context::new(&spec, &demo, &demo_path, &limits).unwrap();
+    let factors: Vec<f64> = (0..400)
+        .flat_map(|i| sample(&spec, &ctx, 7, i).duration_factors)
+        .collect();
+    assert!(factors.iter().all(|f| (0.1..=10.0).contains(f)));
+    let below = factors.iter().filter(|f| **f < 1.0).count() as f64 / factors.len() as f64;
+    assert!((0.4..0.6).contains(&below), "share below 1: {below}");
+    let stretched = factors.iter().filter(|f| **f >= 5.0).count() as f64 / factors.len() as f64;
+    // P(f >= 5) = ln(10 / 5) / ln(100) = 0.15.
+    assert!(
+        (0.1..0.2).contains(&stretched),
+        "share at 5x or more: {stretched}"
+    );
+    let differ = (0..50).any(|i| {
+        let f = sample(&spec, &ctx, 7, i).duration_factors;
+        f.len() > 1 && f[0] != f[1]
+    });
+    assert!(differ, "segments draw their factors independently");
+}
+
 /// Writes `value` with `edit` applied and returns the load error.
 fn spec_error(edit: impl FnOnce(&mut serde_json::Value)) -> String {
     let dir = tempfile::tempdir().unwrap();
@@ -223,6 +257,16 @@ fn bad_specs_name_the_file_the_field_and_what_was_expected() {
             Box::new(|v| v["retime"]["duration_factor"] = serde_json::json!([1.2, 0.9])),
             "retime.duration_factor",
             "lo <= hi",
+        ),
+        (
+            Box::new(|v| v["retime"]["duration_factor"] = serde_json::json!([0.5, 1e6])),
+            "retime.duration_factor[1]",
+            "at most 100",
+        ),
+        (
+            Box::new(|v| v["retime"]["distribution"] = serde_json::json!("normal")),
+            "retime.distribution",
+            "log_uniform",
         ),
         (
             Box::new(|v| {
@@ -442,6 +486,144 @@ fn augment_runs_end_to_end_reruns_identically_and_shards_agree() {
     ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("missing"), "{}", stderr(&o));
+}
+
+/// `--compare-baseline`: every sample that ran also runs with the baseline hand, its files
+/// beside the sample's (not taken for outputs by other commands), its verdict and D_C in the
+/// rows, the paired counts in stats.json; a sample finished without it runs again.
+#[test]
+fn compare_baseline_pairs_both_hands_sample_by_sample() {
+    let tmp = tempfile::tempdir().unwrap();
+    let demo = repo("scenes/demos/small_box.demo.json");
+    // Every segment stretched at least twice: D_C over stretched segments is defined.
+    let mut spec: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(repo("scenes/variations/small_box.json")).unwrap())
+            .unwrap();
+    spec["scene"] = serde_json::json!(repo("scenes/kitchen.json"));
+    spec["retime"] = serde_json::json!({"duration_factor": [2.0, 3.0]});
+    let spec_path = tmp.path().join("stretch.json");
+    std::fs::write(&spec_path, spec.to_string()).unwrap();
+    let out = tmp.path().join("out");
+    let args = |compare: bool| {
+        let mut a: Vec<String> = [
+            "augment",
+            "--demo",
+            demo.to_str().unwrap(),
+            "--variations",
+            spec_path.to_str().unwrap(),
+            "--count",
+            "2",
+            "--seed",
+            "3",
+            "--jobs",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(String::from)
+        .to_vec();
+        if compare {
+            a.push("--compare-baseline".into());
+        }
+        a
+    };
+    let run = |a: Vec<String>| {
+        let refs: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = dexwarp(&refs);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    // A plain run first: no baseline anywhere.
+    run(args(false));
+    let stats = |p: &Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(p.join("stats.json")).unwrap()).unwrap()
+    };
+    assert!(stats(&out).get("baseline").is_none());
+    // With the comparison, the finished samples run again.
+    let said = run(args(true));
+    assert!(
+        said.contains("2 run now") && said.contains("paired: both"),
+        "{said}"
+    );
+    let s = stats(&out);
+    let b = &s["baseline"];
+    let ran = s["ran"].as_u64().unwrap();
+    assert!(ran > 0, "{s}");
+    assert_eq!(b["ran"].as_u64(), Some(ran));
+    let p = &b["paired"];
+    let sum: u64 = ["both", "only_contact_ik", "only_baseline", "neither"]
+        .iter()
+        .map(|k| p[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(sum, ran);
+    assert_eq!(
+        p["both"].as_u64().unwrap() + p["only_contact_ik"].as_u64().unwrap(),
+        s["passed"].as_u64().unwrap()
+    );
+    assert_eq!(
+        p["both"].as_u64().unwrap() + p["only_baseline"].as_u64().unwrap(),
+        b["passed"].as_u64().unwrap()
+    );
+
+    let mut rows = csv::Reader::from_path(out.join("samples.csv")).unwrap();
+    let headers = rows.headers().unwrap().clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).unwrap();
+    for r in rows.records() {
+        let r = r.unwrap();
+        let dir = out.join(&r[col("status")]).join(&r[col("id")]);
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("baseline.report.json")).unwrap())
+                .unwrap();
+        assert_eq!(report["hand"], "baseline");
+        assert!(dir.join("baseline.frames.csv").is_file());
+        let demos = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .ends_with(".demo.json")
+            })
+            .count();
+        assert_eq!(demos, 1, "only contact IK's demonstration is written");
+        let want = if report["physics"]["verdict"] == "pass" {
+            "kept"
+        } else {
+            "failed"
+        };
+        assert_eq!(&r[col("baseline_status")], want);
+        let dc: f64 = r[col("baseline_d_c_mm")].parse().unwrap();
+        assert_eq!(dc, report["metrics"]["d_c_mm"]["warped"].as_f64().unwrap());
+        assert!(r[col("stretch_max")].parse::<f64>().unwrap() >= 2.0);
+        for c in ["d_c_stretched_mm", "baseline_d_c_stretched_mm"] {
+            let v: f64 = r[col(c)].parse().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v > 0.0, "{c}: {:?}", &r[col(c)]);
+        }
+    }
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(page.contains("Contact IK against the SE(3) baseline"));
+
+    // A rerun skips everything and writes the same figures.
+    let before = strip_timing(&out.join("stats.json"));
+    let said = run(args(true));
+    assert!(said.contains("0 run now"), "{said}");
+    assert_eq!(strip_timing(&out.join("stats.json")), before);
+
+    // Other commands do not take the baseline's report for an output of the run.
+    let keep = tmp.path().join("keep.csv");
+    let o = dexwarp(&[
+        "filter",
+        out.to_str().unwrap(),
+        "--out",
+        keep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("of {ran}")),
+        "filter sees {ran} reports: {}",
+        stderr(&o)
+    );
 }
 
 /// The cluster examples of the README, dry-run here: the Slurm array script for the even

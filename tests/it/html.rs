@@ -97,6 +97,14 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         assert!(out.join("player").join(f).is_file(), "player/{f} missing");
     }
     assert!(html.contains("id=\"player\""), "the page has no player");
+    // The paper's Fig. "naive" of the config with the most stretched segment (the only one
+    // here), on the page and as a file.
+    let naive = std::fs::read_to_string(out.join("figures/naive_box_lift.svg")).unwrap();
+    assert!(naive.contains("<svg") && naive.contains("wrist, baseline"));
+    assert!(
+        html.contains("Fig. \"naive\""),
+        "the page has no Fig. naive"
+    );
     // `dexwarp report` on the same folder keeps reproduce's page and writes report.html.
     let o = crate::fixtures::dexwarp(&["report", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
