@@ -55,7 +55,7 @@ fn line_chart_shaded(
     y_label: &str,
     series: &[Series],
     marks: &[f64],
-    shaded: &[(Vec<usize>, RGBColor)],
+    shaded: &[(Vec<usize>, RGBColor, &str)],
 ) -> String {
     let mut svg = String::new();
     {
@@ -92,15 +92,21 @@ fn line_chart_shaded(
             .light_line_style(RGBColor(235, 235, 235))
             .draw();
         let (lo, hi) = (y0 - pad, y1 + pad);
-        for (k, (frames, color)) in shaded.iter().enumerate() {
+        for (k, (frames, color, label)) in shaded.iter().enumerate() {
             let (b0, b1) = if k % 2 == 0 {
                 (lo, (lo + hi) / 2.0)
             } else {
                 ((lo + hi) / 2.0, hi)
             };
-            let _ = chart.draw_series(spans(frames).into_iter().map(|(a, b)| {
+            let drawn = chart.draw_series(spans(frames).into_iter().map(|(a, b)| {
                 Rectangle::new([(a as f64, b0), (b as f64, b1)], color.mix(0.18).filled())
             }));
+            if let (Ok(a), false) = (drawn, frames.is_empty()) {
+                let c = *color;
+                a.label(*label).legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 18, y + 5)], c.mix(0.18).filled())
+                });
+            }
         }
         for (k, &m) in marks.iter().enumerate() {
             let a = chart.draw_series(std::iter::once(PathElement::new(
@@ -281,8 +287,8 @@ fn naive_configs(rep: &Reproduction) -> Vec<String> {
     out
 }
 
-/// Output frames where the simulated object is off its plan by more than the drop limit or
-/// by more than the rotation limit: where a hand loses the object.
+/// Output frames where the simulated object is off its plan by more than the drop limit
+/// (30 mm) or by more than the mean rotation limit (15°): where a hand is losing the object.
 fn failing_frames(rows: &[FrameRow]) -> Vec<usize> {
     let p = crate::physics::Params::default();
     rows.iter()
@@ -298,7 +304,8 @@ fn failing_frames(rows: &[FrameRow]) -> Vec<usize> {
 
 /// The paper's Fig. "naive" for each of [`naive_configs`]: object height, baseline wrist and
 /// contact-IK wrist height over output time, τ's control points marked, the frames where
-/// either hand loses the object shaded (orange: the baseline, blue: contact IK). Each is also
+/// the object is off its plan with either hand shaded (orange: the baseline, blue: contact
+/// IK). Each is also
 /// written as `figures/naive_<config>.svg` beside the page.
 fn naive_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
     for c in naive_configs(rep) {
@@ -311,7 +318,14 @@ fn naive_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
         let z = |rows: &[FrameRow], f: fn(&FrameRow) -> f64| -> Vec<(f64, f64)> {
             rows.iter().map(|r| (r.frame as f64, f(r))).collect()
         };
-        let shaded = [(failing_frames(&base), ORANGE), (failing_frames(&lm), BLUE)];
+        let shaded = [
+            (
+                failing_frames(&base),
+                ORANGE,
+                "object off its plan, baseline",
+            ),
+            (failing_frames(&lm), BLUE, "object off its plan, contact IK"),
+        ];
         let svg = line_chart_shaded(
             &format!("object and wrist height: {c}"),
             "output frame",
@@ -342,7 +356,7 @@ fn naive_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
         let (nb, nl) = (shaded[0].0.len(), shaded[1].0.len());
         out.push((
             format!(
-                "Fig. \"naive\": heights over output time, baseline against contact IK ({c}; object lost on {nb} frames with the baseline, {nl} with contact IK, shaded)"
+                "Fig. \"naive\": heights over output time, baseline against contact IK ({c}; shaded: the {nb} frames with the baseline and the {nl} with contact IK where the simulated object is over 30 mm or 15° off its plan)"
             ),
             svg,
         ));
