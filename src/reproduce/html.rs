@@ -302,11 +302,59 @@ fn failing_frames(rows: &[FrameRow]) -> Vec<usize> {
         .collect()
 }
 
+/// Object height, baseline wrist and contact-IK wrist height over output time, τ's control
+/// points marked, the frames where the object is off its plan shaded per hand; with the
+/// number of shaded frames of the baseline and of contact IK.
+fn heights_chart(
+    rep: &Reproduction,
+    c: &str,
+    lm: &[FrameRow],
+    base: &[FrameRow],
+) -> (String, usize, usize) {
+    let marks = control_points(rep, c, lm);
+    let z = |rows: &[FrameRow], f: fn(&FrameRow) -> f64| -> Vec<(f64, f64)> {
+        rows.iter().map(|r| (r.frame as f64, f(r))).collect()
+    };
+    let shaded = [
+        (
+            failing_frames(base),
+            ORANGE,
+            "object off its plan, baseline",
+        ),
+        (failing_frames(lm), BLUE, "object off its plan, contact IK"),
+    ];
+    let svg = line_chart_shaded(
+        &format!("object and wrist height: {c}"),
+        "output frame",
+        "z [m]",
+        &[
+            Series {
+                label: "object",
+                color: GREY,
+                points: z(lm, |r| r.object_z),
+            },
+            Series {
+                label: "wrist, baseline",
+                color: ORANGE,
+                points: z(base, |r| r.wrist_z),
+            },
+            Series {
+                label: "wrist, contact IK",
+                color: BLUE,
+                points: z(lm, |r| r.wrist_z),
+            },
+        ],
+        &marks,
+        &shaded,
+    );
+    let (nb, nl) = (shaded[0].0.len(), shaded[1].0.len());
+    (svg, nb, nl)
+}
+
 /// The paper's Fig. "naive" for each of [`naive_configs`]: object height, baseline wrist and
 /// contact-IK wrist height over output time, τ's control points marked, the frames where
 /// the object is off its plan with either hand shaded (orange: the baseline, blue: contact
-/// IK). Each is also
-/// written as `figures/naive_<config>.svg` beside the page.
+/// IK), each also written as `figures/naive_<config>.svg` beside the page.
 fn naive_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
     for c in naive_configs(rep) {
         let lm = run_dir(rep, &c, "lm_3.5mm").and_then(|d| read_frames(&d));
@@ -314,46 +362,10 @@ fn naive_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
         let (Some(lm), Some(base)) = (lm, base) else {
             continue;
         };
-        let marks = control_points(rep, &c, &lm);
-        let z = |rows: &[FrameRow], f: fn(&FrameRow) -> f64| -> Vec<(f64, f64)> {
-            rows.iter().map(|r| (r.frame as f64, f(r))).collect()
-        };
-        let shaded = [
-            (
-                failing_frames(&base),
-                ORANGE,
-                "object off its plan, baseline",
-            ),
-            (failing_frames(&lm), BLUE, "object off its plan, contact IK"),
-        ];
-        let svg = line_chart_shaded(
-            &format!("object and wrist height: {c}"),
-            "output frame",
-            "z [m]",
-            &[
-                Series {
-                    label: "object",
-                    color: GREY,
-                    points: z(&lm, |r| r.object_z),
-                },
-                Series {
-                    label: "wrist, baseline",
-                    color: ORANGE,
-                    points: z(&base, |r| r.wrist_z),
-                },
-                Series {
-                    label: "wrist, contact IK",
-                    color: BLUE,
-                    points: z(&lm, |r| r.wrist_z),
-                },
-            ],
-            &marks,
-            &shaded,
-        );
+        let (svg, nb, nl) = heights_chart(rep, &c, &lm, &base);
         let file = rep.out.join("figures").join(format!("naive_{c}.svg"));
         let _ = std::fs::create_dir_all(rep.out.join("figures"));
         let _ = write_atomic(&file, svg.as_bytes());
-        let (nb, nl) = (shaded[0].0.len(), shaded[1].0.len());
         out.push((
             format!(
                 "Fig. \"naive\": heights over output time, baseline against contact IK ({c}; shaded: the {nb} frames with the baseline and the {nl} with contact IK where the simulated object is over 30 mm or 15° off its plan)"
@@ -410,28 +422,7 @@ fn plots(rep: &Reproduction) -> Vec<(String, String)> {
             };
             out.push((
                 format!("Heights over time, baseline against contact IK ({c})"),
-                line_chart(
-                    &format!("object and wrist height: {c}"),
-                    "output frame",
-                    "z [m]",
-                    &[
-                        Series {
-                            label: "object",
-                            color: GREY,
-                            points: col(&lm, |r| Some(r.object_z)),
-                        },
-                        Series {
-                            label: "wrist, baseline",
-                            color: ORANGE,
-                            points: col(&base, |r| Some(r.wrist_z)),
-                        },
-                        Series {
-                            label: "wrist, contact IK",
-                            color: BLUE,
-                            points: col(&lm, |r| Some(r.wrist_z)),
-                        },
-                    ],
-                ),
+                heights_chart(rep, &c, &lm, &base).0,
             ));
             out.push((
                 format!("Per-frame D_C ({c})"),
