@@ -1,6 +1,8 @@
-//! Meshes (OBJ, STL), the object's signed distance field, bounding-sphere trees, and shape
-//! queries on parry shapes.
+//! Meshes (OBJ, STL), their convex decompositions (the object's collision shape, hand link
+//! hulls) with their disk cache, the object's signed distance field, bounding-sphere trees,
+//! and shape queries on parry shapes.
 
+pub mod hull;
 pub mod mesh;
 pub mod sdf;
 pub mod sphere_tree;

@@ -25,10 +25,10 @@ use rapier3d_f64::parry::math::Pose;
 use rapier3d_f64::parry::query;
 use rapier3d_f64::parry::shape::Shape;
 
-use super::object::ObjectShape;
 use super::params::Params;
 use super::report::{Drop, DropCause, Grip, Penetration, Stability, Tracking};
 use super::world::{GripSample, ReplayWorld};
+use crate::geometry::hull::ObjectShape;
 use crate::math::convert::to_pose;
 use crate::math::quantile::quantile_sorted;
 use crate::math::rotation::angle_between;

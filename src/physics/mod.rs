@@ -2,7 +2,7 @@
 //!
 //! [`validate`] replays one demonstration, warped or original, and judges it:
 //! 1. **object shape**: convex decomposition of the object mesh, cached per process and on
-//!    disk (`DEXWARP_CACHE_DIR`, see [`object::cache_dir`]);
+//!    disk (`DEXWARP_CACHE_DIR`, see [`crate::geometry::hull::cache_dir`]);
 //! 2. **world**: every hand link a kinematic position-based body, the object a dynamic body
 //!    with the demonstration's mass at its frame-0 pose (resting on its support), supports
 //!    and the checked barriers fixed ([`world`]);
@@ -158,7 +158,6 @@
 mod actuated;
 mod checks;
 pub mod margin;
-pub mod object;
 pub mod params;
 mod replay;
 pub mod report;
@@ -170,9 +169,9 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+pub use crate::geometry::hull::{DecompositionParams, ObjectShape, ShapeMethod, object_shape};
 pub use margin::{Margin, margin};
-pub use object::{ObjectShape, ShapeMethod, object_shape};
-pub use params::{Actuation, DecompositionParams, HandModel, Params};
+pub use params::{Actuation, HandModel, Params};
 pub use report::{
     Drop, DropCause, Grip, Penetration, Penetrations, PerFrame, PhysicsReport, Release, ReplayInfo,
     Stability, Timing, Tracking,

@@ -8,32 +8,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::geometry::hull::DecompositionParams;
 use crate::{Error, Result};
-
-/// How the object mesh is split into convex parts (V-HACD, parry's `VHACDParameters`).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct DecompositionParams {
-    /// Voxel grid resolution along the longest axis; default 32. parry's 64 takes 0.5-2 s on
-    /// the mug and teapot; 32 keeps handles and spouts as separate parts in well under a
-    /// second.
-    pub resolution: u32,
-    /// Largest concavity a part may keep, relative to the mesh size; default 0.02 (parry's
-    /// 0.01 splits a plain box into many slivers without a better fit).
-    pub concavity: f64,
-    /// Most convex parts; default 24 (the contact work per step grows with it).
-    pub max_parts: u32,
-}
-
-impl Default for DecompositionParams {
-    fn default() -> Self {
-        DecompositionParams {
-            resolution: 32,
-            concavity: 0.02,
-            max_parts: 24,
-        }
-    }
-}
 
 /// How the hand moves in the replay.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

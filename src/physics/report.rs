@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::object::ShapeMethod;
+use crate::geometry::hull::ShapeMethod;
 use crate::model::report::PhysicsSummary;
 
 /// Simulated object pose vs the demonstration's, over all frames.

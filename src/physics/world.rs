@@ -29,9 +29,9 @@ use rapier3d_f64::prelude::{
 };
 
 use super::actuated::ActuatedHand;
-use super::object::ObjectShape;
 use super::params::{HandModel, Params};
 use crate::Result;
+use crate::geometry::hull::ObjectShape;
 use crate::math::convert::{from_pose, to_pose, to_vec};
 use crate::robot::{CollisionShape, Robot};
 

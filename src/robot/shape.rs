@@ -25,7 +25,7 @@
 //! the same URDF always gives the same points.
 //!
 //! Hand links with mesh collision geometry are built with [`CollisionShape::new_link`]: the
-//! mesh is replaced by its convex parts ([`crate::physics::object::link_hulls`]: the hull of
+//! mesh is replaced by its convex parts ([`crate::geometry::hull::link_hulls`]: the hull of
 //! each connected part, or its V-HACD parts when the hull is far from it), and the
 //! [`ShapeKind::Mesh`] it keeps is the union of those parts' hulls, so the physics collider,
 //! the penetration probes, the IK's surface points and the checks all see the same convex
@@ -134,7 +134,7 @@ impl CollisionShape {
         let ShapeKind::Mesh { path, scale, mesh } = kind else {
             return CollisionShape::new(kind, origin);
         };
-        let hulls = crate::physics::object::link_hulls(&mesh)?;
+        let hulls = crate::geometry::hull::link_hulls(&mesh)?;
         let mut merged = Mesh::default();
         let mut parts = Vec::with_capacity(hulls.len());
         for (v, t) in &hulls {
