@@ -72,8 +72,9 @@ pub struct Row {
 }
 
 /// A segment whose duration factor is at least this is *stretched*: its D_C is reported
-/// apart (`d_c_stretched_mm`), since that is where a rigidly transferred hand, interpolated
-/// between the few frames whose pose it knows, drifts off the object.
+/// apart (`d_c_stretched_mm`), since that is where the paper expects a rigidly transferred
+/// hand, interpolated between the frames whose pose it knows, to drift off the object; the
+/// comparison measures whether it does.
 pub const STRETCHED: f64 = 2.0;
 
 /// A per-sample figure of a row (`None` when the sample did not run).

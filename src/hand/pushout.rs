@@ -18,8 +18,9 @@ use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
 use super::HandPath;
+use crate::model::report::NarrowGap;
 use crate::warp::WarpPlan;
-use crate::warp::barrier::{Barrier, NarrowGap, PushoutMode};
+use crate::warp::barrier::{Barrier, PushoutMode};
 
 /// Parameters of the hand push-out.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -7,7 +7,14 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::warp::barrier::NarrowGap;
+/// Frames the push-out could not free: the paper's narrow-gap failure.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct NarrowGap {
+    /// Input frames still inside an inflated barrier after the last sweep.
+    pub frames: Vec<usize>,
+    /// Barriers those frames are inside.
+    pub barriers: Vec<String>,
+}
 
 /// The `format` value of a report.
 pub const REPORT_FORMAT: &str = "dexwarp.report/1";

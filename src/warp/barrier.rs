@@ -33,6 +33,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::geometry::Mesh;
 use crate::math::convert::{from_point, to_point};
+pub use crate::model::report::NarrowGap;
 use crate::model::scene::{SceneItem, ShapeJson};
 use crate::warp::plan::WarpPlan;
 use crate::{Error, Limits, Result};
@@ -67,15 +68,6 @@ impl Default for Params {
             max_sweeps: 64,
         }
     }
-}
-
-/// Frames the push-out could not free: the paper's narrow-gap failure.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct NarrowGap {
-    /// Input frames still inside an inflated barrier after the last sweep.
-    pub frames: Vec<usize>,
-    /// Barriers those frames are inside.
-    pub barriers: Vec<String>,
 }
 
 /// What the push-out did.
