@@ -7,7 +7,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::stats::{BaselineStats, Metric, Row, Stats};
+use super::stats::{BaselineStats, Metric, Row, STRETCHED, Stats};
 use crate::Result;
 use crate::model::json::write_atomic;
 
@@ -148,7 +148,7 @@ fn baseline_section(b: &BaselineStats) -> String {
     for (what, pair) in [
         ("whole contact segment", &b.d_c_mm),
         (
-            "stretched segments (duration ×2 or more)",
+            &format!("stretched segments (duration ×{STRETCHED} or more)"),
             &b.d_c_stretched_mm,
         ),
     ] {

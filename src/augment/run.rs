@@ -227,7 +227,7 @@ fn base_row(s: &Sample) -> Row {
 
 /// The output frames of the sample's stretched segments (duration factor at least
 /// [`STRETCHED`]).
-fn stretched_frames(s: &Sample) -> Vec<std::ops::Range<usize>> {
+fn stretched_frames(s: &Sample) -> Vec<Range<usize>> {
     s.duration_factors
         .iter()
         .zip(s.anchors_t_new.windows(2))
@@ -238,7 +238,7 @@ fn stretched_frames(s: &Sample) -> Vec<std::ops::Range<usize>> {
 
 /// Mean of the `d_c_mm` column of a `frames.csv` over the output frames in `ranges`; `None`
 /// when there are no such frames with a D_C, or the file does not read.
-fn mean_d_c_over(frames_csv: &Path, ranges: &[std::ops::Range<usize>]) -> Option<f64> {
+fn mean_d_c_over(frames_csv: &Path, ranges: &[Range<usize>]) -> Option<f64> {
     #[derive(Deserialize)]
     struct Frame {
         frame: usize,

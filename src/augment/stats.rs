@@ -302,7 +302,7 @@ pub struct BaselineStats {
     /// Samples where both hands ran, by which passed.
     pub paired: Paired,
     /// D_C of both hands over the samples where both ran, and over their stretched segments
-    /// (duration factor at least 2) [mm].
+    /// (duration factor at least [`STRETCHED`]) [mm].
     pub d_c_mm: HandPair,
     pub d_c_stretched_mm: HandPair,
 }

@@ -8,7 +8,7 @@
 //! figure); per-frame D_C; per-frame physics tracking error; the robustness curves; for every
 //! `*_timewarp_stress*` config and for the config whose retiming stretches a segment the most,
 //! the paper's Fig. "naive" (object height, baseline wrist and contact-IK wrist over output
-//! time, τ's control points marked, the frames where either hand loses the object shaded),
+//! time, τ's control points marked, the frames where the object is off its plan shaded),
 //! also written as `figures/naive_<config>.svg`.
 
 use std::path::Path;
@@ -32,23 +32,13 @@ struct Series<'a> {
 }
 
 fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
-    line_chart_marked(title, x_label, y_label, series, &[])
+    line_chart_shaded(title, x_label, y_label, series, &[], &[])
 }
 
-/// A line chart with vertical marker lines at the x values `marks` (τ's control points).
-fn line_chart_marked(
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[Series],
-    marks: &[f64],
-) -> String {
-    line_chart_shaded(title, x_label, y_label, series, marks, &[])
-}
-
-/// [`line_chart_marked`] with bands shaded behind the lines: each `(frames, color)` shades
-/// `[f, f + 1)` for every listed x value `f` (sorted), the first in the lower half
-/// of the plot and the second in the upper half, so two sets stay apart where they overlap.
+/// A line chart with vertical marker lines at the x values `marks` (τ's control points) and
+/// bands shaded behind the lines: each `(frames, color, label)` shades `[f, f + 1)` for every
+/// listed x value `f` (sorted), the first in the lower half of the plot and the second in the
+/// upper half, so two sets stay apart where they overlap.
 fn line_chart_shaded(
     title: &str,
     x_label: &str,
@@ -207,32 +197,40 @@ fn run_dir(rep: &Reproduction, config: &str, variant: &str) -> Option<std::path:
         .map(|r| r.dir.clone())
 }
 
-/// τ's control points in output frames: the start of the contact segment, every waypoint's
-/// `t_new` (read from the run's config), and the end of the contact segment.
-fn control_points(rep: &Reproduction, config: &str, rows: &[FrameRow]) -> Vec<f64> {
-    let mut v = Vec::new();
-    let in_contact: Vec<usize> = rows
-        .iter()
-        .filter(|r| r.in_contact)
-        .map(|r| r.frame)
-        .collect();
-    if let Some(&c0) = in_contact.first() {
-        v.push(c0 as f64);
-    }
+/// The waypoints of a config as `(t, t_new)`, read from the config file its runs name (empty
+/// when it has none or the file does not read).
+fn waypoint_frames(rep: &Reproduction, config: &str) -> Vec<(f64, f64)> {
     let path = rep
         .runs
         .iter()
         .find(|r| r.config == config)
         .and_then(|r| r.report.config.clone());
-    if let Some(text) = path.and_then(|p| std::fs::read(p).ok())
-        && let Ok(json) = serde_json::from_slice::<serde_json::Value>(&text)
-        && let Some(ws) = json.get("waypoints").and_then(|w| w.as_array())
-    {
-        v.extend(ws.iter().filter_map(|w| w.get("t_new")?.as_f64()));
-    }
-    if let Some(&c1) = in_contact.last() {
-        v.push(c1 as f64);
-    }
+    let Some(json) = path
+        .and_then(|p| std::fs::read(p).ok())
+        .and_then(|text| serde_json::from_slice::<serde_json::Value>(&text).ok())
+    else {
+        return Vec::new();
+    };
+    json.get("waypoints")
+        .and_then(|w| w.as_array())
+        .map_or_else(Vec::new, |ws| {
+            ws.iter()
+                .filter_map(|w| Some((w.get("t")?.as_f64()?, w.get("t_new")?.as_f64()?)))
+                .collect()
+        })
+}
+
+/// τ's control points in output frames: the start of the contact segment, every waypoint's
+/// `t_new`, and the end of the contact segment.
+fn control_points(rep: &Reproduction, config: &str, rows: &[FrameRow]) -> Vec<f64> {
+    let in_contact: Vec<usize> = rows
+        .iter()
+        .filter(|r| r.in_contact)
+        .map(|r| r.frame)
+        .collect();
+    let mut v: Vec<f64> = in_contact.first().map(|&c| c as f64).into_iter().collect();
+    v.extend(waypoint_frames(rep, config).iter().map(|w| w.1));
+    v.extend(in_contact.last().map(|&c| c as f64));
     v
 }
 
@@ -245,19 +243,8 @@ fn max_stretch(rep: &Reproduction, config: &str) -> Option<f64> {
     let rows = read_frames(&dir)?;
     let contact: Vec<&FrameRow> = rows.iter().filter(|r| r.in_contact).collect();
     let (c0, c1) = (contact.first()?.source_frame, contact.last()?.source_frame);
-    let path = rep
-        .runs
-        .iter()
-        .find(|r| r.config == config)
-        .and_then(|r| r.report.config.clone())?;
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
     let mut anchors = vec![c0];
-    if let Some(ws) = json.get("waypoints").and_then(|w| w.as_array()) {
-        anchors.extend(
-            ws.iter()
-                .filter_map(|w| Some(w.get("t")?.as_f64()? as usize)),
-        );
-    }
+    anchors.extend(waypoint_frames(rep, config).iter().map(|w| w.0 as usize));
     anchors.push(c1);
     anchors
         .windows(2)

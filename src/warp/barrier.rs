@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::geometry::Mesh;
 use crate::math::convert::{from_point, to_point};
-pub use crate::model::report::NarrowGap;
+use crate::model::report::NarrowGap;
 use crate::model::scene::{SceneItem, ShapeJson};
 use crate::warp::plan::WarpPlan;
 use crate::{Error, Limits, Result};
