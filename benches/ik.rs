@@ -24,12 +24,12 @@ use dexwarp::hand::ik::{self, IkSolver, Params, ResolvedContact, Solver};
 use dexwarp::hand::{HandPath, baseline};
 use dexwarp::pipeline::{self, Inputs, Options};
 use dexwarp::warp::ObjectWarp;
-use dexwarp::warp::retime::RetimeMode;
 use nalgebra::{Isometry3, Vector3};
 
 #[path = "../tests/it/support.rs"]
 mod support;
 
+use dexwarp::model::RetimeMode;
 use support::{GraspDemo, GraspOptions};
 
 /// One frame's problem: object pose, correspondences, warm start.

@@ -3,9 +3,8 @@
 
 use dexwarp::model::ContactSegment;
 use dexwarp::model::config::{ConfigFile, WarpConfig};
+use dexwarp::model::{PushoutMode, RetimeMode};
 use dexwarp::warp::barrier::Barrier;
-use dexwarp::warp::barrier::PushoutMode;
-use dexwarp::warp::retime::RetimeMode;
 use dexwarp::warp::{ObjectParams, ObjectPath, WarpPlan, warp_object};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 

@@ -1,6 +1,6 @@
 //! dexwarp: warp one contact-rich dexterous manipulation demonstration into many.
 //!
-//! The pipeline (see [`pipeline`] once it lands, and `docs/METHOD.md`):
+//! The pipeline ([`pipeline::warp`], and `docs/METHOD.md`):
 //! 1. spatial warp of the object through waypoints,
 //! 2. barrier push-out of the object,
 //! 3. temporal retiming (global C² B-spline and the timewarp τ),
@@ -10,10 +10,35 @@
 //! 7. metrics,
 //! 8. report.
 //!
-//! Folders follow the architecture: [`math`] holds pure numerical kernels, [`model`] the
-//! data model and its JSON formats, [`robot`] URDF hands and their kinematics, [`geometry`]
-//! meshes and shape queries.
-
+//! # Layers
+//!
+//! The modules read bottom-up: each imports only modules on the lines above its own (its
+//! unit tests may use any module for their fixtures). The integration test `layers` checks
+//! this list against the sources, so it is the order the code has.
+//!
+//! 1. [`error`]: the error type, naming the file, the field and what was expected.
+//! 2. [`limits`]: bounds on every input, so no input asks for unbounded work.
+//! 3. [`math`]: numerical kernels (B-splines, rotations, Savitzky-Golay, quantiles).
+//! 4. [`geometry`]: meshes, convex decompositions and their disk cache, collision shapes,
+//!    the object's distance field, sphere trees.
+//! 5. [`model`]: plain data and its file formats: demonstration, scene, config, the stage
+//!    variants a config chooses, report, frame rows. It imports no stage.
+//! 6. [`robot`]: URDF hands, kinematics, penetration probes, a demonstration bound to its hand.
+//! 7. [`warp`]: the object stages: spatial warp, barrier push-out, retiming.
+//! 8. [`metrics`]: D_WO, D_C, path length ratio, timewarp discrepancy.
+//! 9. [`hand`]: the hand stages: contact IK, the SE(3) baseline, push-out, smoothing, guard.
+//! 10. [`physics`]: the Rapier replay and its checks.
+//! 11. [`pipeline`]: the stage list of one warp, its report, and `validate`.
+//! 12. [`output`]: a run's files written as one set.
+//! 13. [`synth`]: demonstrations synthesized for a hand and an object.
+//! 14. [`player`]: the 3D player page of a trajectory.
+//! 15. [`filter`]: selecting reports by their figures.
+//! 16. [`export`]: LeRobot and robomimic datasets.
+//! 17. [`import`]: a recording (CSV, LeRobot) in as a demonstration.
+//! 18. [`batch`]: many warps from a manifest.
+//! 19. [`augment`]: sampled variations of one demonstration.
+//! 20. [`overview`]: the HTML overview of a run folder and the comparison of two.
+//! 21. [`reproduce`]: the paper's experiments, tables and figures.
 pub mod augment;
 pub mod batch;
 pub mod error;

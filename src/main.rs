@@ -734,13 +734,13 @@ fn run(cli: Cli) -> Result<()> {
                 hand: hand.into(),
                 solver: solver.into(),
                 objective: objective.map(|o| match o {
-                    ObjectiveArg::NonPenetrating => dexwarp::hand::ik::Objective::NonPenetrating,
-                    ObjectiveArg::Paper => dexwarp::hand::ik::Objective::Paper,
+                    ObjectiveArg::NonPenetrating => dexwarp::model::Objective::NonPenetrating,
+                    ObjectiveArg::Paper => dexwarp::model::Objective::Paper,
                 }),
                 penetration_weight,
                 warm_start: warm_start.map(|w| match w {
-                    WarmStartArg::Previous => dexwarp::hand::ik::WarmStart::Previous,
-                    WarmStartArg::FollowObject => dexwarp::hand::ik::WarmStart::FollowObject,
+                    WarmStartArg::Previous => dexwarp::model::WarmStart::Previous,
+                    WarmStartArg::FollowObject => dexwarp::model::WarmStart::FollowObject,
                 }),
                 physics: (!no_physics).then(|| dexwarp::physics::Params {
                     margin,
@@ -783,7 +783,7 @@ fn run(cli: Cli) -> Result<()> {
                 &out,
                 vec![(
                     "frames.csv".into(),
-                    dexwarp::output::frames::csv_bytes(&frames_path, &frames)?,
+                    dexwarp::model::frames::csv_bytes(&frames_path, &frames)?,
                 )],
                 &mut report,
             )?;

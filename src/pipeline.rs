@@ -21,21 +21,23 @@ use rapier3d_f64::parry::query;
 use rapier3d_f64::parry::shape::SharedShape;
 
 use crate::geometry::Mesh;
-use crate::hand::ik::{self, Objective, Solver};
+use crate::geometry::shape::CollisionShape;
+use crate::hand::ik::{self, Solver};
 use crate::hand::{HandPath, baseline, guard, pushout, smooth};
 use crate::math::convert::to_pose;
 use crate::metrics;
+use crate::model::Objective;
+use crate::model::frames::FrameRow;
 use crate::model::provenance::Provenance;
 use crate::model::report::{
     Constraints, ContactDistance, GuardSummary, IkSummary, Metrics, Pair, REPORT_FORMAT, Report,
     WorstFrame,
 };
 use crate::model::{Demo, Frame, Scene, WarpConfig};
-use crate::output::frames::FrameRow;
 use crate::physics;
-use crate::robot::{CollisionShape, Robot};
+use crate::robot::Robot;
 use crate::warp::barrier::{Barrier, item_hull_points};
-use crate::warp::{ObjectPath, ObjectWarp, WarpPlan, warp_object};
+use crate::warp::{ObjectParams, ObjectPath, ObjectWarp, WarpPlan, warp_object};
 use crate::{Error, Limits, Result};
 
 /// How the hand is recovered.
@@ -69,11 +71,11 @@ pub struct Options {
     /// IK solver (contact IK only).
     pub solver: Solver,
     /// IK objective overriding the config's.
-    pub objective: Option<ik::Objective>,
+    pub objective: Option<crate::model::Objective>,
     /// IK penetration weight overriding the config's.
     pub penetration_weight: Option<f64>,
     /// IK warm start overriding the config's.
-    pub warm_start: Option<ik::WarmStart>,
+    pub warm_start: Option<crate::model::WarmStart>,
     /// Physics replay parameters; `None` skips the replay (the report's `physics` is null).
     pub physics: Option<physics::Params>,
     pub limits: Limits,
@@ -188,7 +190,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     }
     let radius = mesh.bounding_radius();
     let barriers = prepare_barriers(config, scene, radius, &options.limits)?;
-    let params = config.params.object_params();
+    let params = ObjectParams::from_config(&config.params);
 
     // Stages 1-3: spatial warp, barrier push-out, retiming.
     let object = warp_object(&input, &plan, &barriers, radius, &params, &config.source)?;

@@ -427,7 +427,7 @@ fn execute(
             let frames = stage.join(BASELINE_FRAMES);
             write_atomic(
                 &frames,
-                &crate::output::frames::csv_bytes(&frames, &run.frames)?,
+                &crate::model::frames::csv_bytes(&frames, &run.frames)?,
             )?;
             write_json_atomic(&stage.join(BASELINE_REPORT), &run.report)?;
             stages.insert("baseline.write".into(), clock.elapsed().as_secs_f64());

@@ -27,12 +27,13 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::spec::{BoxJson, FactorDistribution, PlaceJson, PrimitiveShape, Range, Spec};
+use crate::model::PushoutMode;
 use crate::model::config::{AxisAngleJson, CONFIG_FORMAT, ConfigFile, WaypointJson};
 use crate::model::scene::{
     SCENE_FORMAT, SceneFile, SceneItem, SceneItemJson, ScenePoseJson, ShapeJson,
 };
 use crate::model::{Demo, Role, Scene};
-use crate::warp::barrier::{Barrier, PushoutMode, item_hull_points};
+use crate::warp::barrier::{Barrier, item_hull_points};
 use crate::{Error, Limits, Result};
 
 /// The level top face of a support (a box or a cylinder whose axis is vertical).

@@ -18,9 +18,11 @@ use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
 use super::HandPath;
+use crate::model::PushoutMode;
+use crate::model::config::DEFAULT_HAND_RADIUS_M;
 use crate::model::report::NarrowGap;
 use crate::warp::WarpPlan;
-use crate::warp::barrier::{Barrier, PushoutMode};
+use crate::warp::barrier::Barrier;
 
 /// Parameters of the hand push-out.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -40,16 +42,13 @@ pub struct Params {
 impl Default for Params {
     fn default() -> Self {
         Params {
-            radius_m: DEFAULT_RADIUS_M,
+            radius_m: DEFAULT_HAND_RADIUS_M,
             mode: PushoutMode::Paper,
             step_m: 0.002,
             max_sweeps: 64,
         }
     }
 }
-
-/// Default hand bounding radius [m].
-pub const DEFAULT_RADIUS_M: f64 = 0.05;
 
 /// What the hand push-out did.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

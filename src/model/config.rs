@@ -11,13 +11,9 @@ use nalgebra::{Unit, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::json::{self, FieldCheck};
+use super::modes::{Objective, PushoutMode, RetimeMode, WarmStart};
 use super::scene::{Role, Scene};
-use crate::hand::ik::{Objective, WarmStart};
 use crate::limits::MAX_JOINT_ABS;
-use crate::warp::ObjectParams;
-use crate::warp::barrier::{self, PushoutMode};
-use crate::warp::retime::{self, RetimeMode};
-use crate::warp::spatial;
 use crate::{Error, Limits, Result};
 
 /// The `format` value of a config file.
@@ -45,6 +41,9 @@ pub struct WaypointJson {
     /// Output frame at which the warped object passes `position`.
     pub t_new: f64,
 }
+
+/// Default bounding radius of the hand about the wrist for its barrier push-out [m].
+pub const DEFAULT_HAND_RADIUS_M: f64 = 0.05;
 
 /// Tunable parameters of a warp, with the paper's defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -109,30 +108,8 @@ impl Default for WarpParams {
             warm_start: WarmStart::FollowObject,
             retime: RetimeMode::Chord,
             continuous_speed: true,
-            hand_radius_m: crate::hand::pushout::DEFAULT_RADIUS_M,
+            hand_radius_m: DEFAULT_HAND_RADIUS_M,
             end_t_new: None,
-        }
-    }
-}
-
-impl WarpParams {
-    /// The parameters of the three object stages this config asks for. Stage parameter types
-    /// live in their stages; the config file format maps onto them here, one way.
-    pub fn object_params(&self) -> ObjectParams {
-        ObjectParams {
-            spatial: spatial::Params {
-                alpha_m: self.alpha_m,
-            },
-            barrier: barrier::Params {
-                mode: self.pushout,
-                step_m: self.pushout_step_m,
-                ..barrier::Params::default()
-            },
-            retime: retime::Params {
-                mode: self.retime,
-                continuous_speed: self.continuous_speed,
-                ..retime::Params::default()
-            },
         }
     }
 }

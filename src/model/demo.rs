@@ -271,11 +271,6 @@ impl Demo {
         })
     }
 
-    /// Loads the demonstration's robot, rooted at its `wrist_link` when it names one.
-    pub fn load_robot(&self, limits: &Limits) -> Result<crate::robot::Robot> {
-        crate::robot::Robot::from_urdf_file_at(&self.robot, limits, self.wrist_link.as_deref())
-    }
-
     /// The in-contact segment [c0, c1], or `None` when no frame has correspondences.
     pub fn contact_segment(&self) -> Option<ContactSegment> {
         let start = self.frames.iter().position(|f| !f.contacts.is_empty())?;

@@ -243,8 +243,8 @@ impl Scene {
         &self,
         item: &SceneItem,
         limits: &Limits,
-    ) -> Result<crate::robot::CollisionShape> {
-        use crate::robot::ShapeKind;
+    ) -> Result<crate::geometry::shape::CollisionShape> {
+        use crate::geometry::shape::ShapeKind;
         let kind = match &item.shape {
             ShapeJson::Box { size } => ShapeKind::Box {
                 size: nalgebra::Vector3::from(*size),
@@ -268,7 +268,7 @@ impl Scene {
                 }
             }
         };
-        crate::robot::CollisionShape::new(kind, item.pose).ok_or_else(|| {
+        crate::geometry::shape::CollisionShape::new(kind, item.pose).ok_or_else(|| {
             Error::invalid(
                 &self.source,
                 format!("items[{:?}].shape", item.name),

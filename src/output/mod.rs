@@ -10,7 +10,6 @@
 //! off a mixed set as a finished run. Temporaries left by killed runs are removed by the next
 //! run that writes there ([`clean_stale`]).
 
-pub mod frames;
 pub mod progress;
 
 use std::io::Write;
@@ -50,7 +49,7 @@ pub fn write_run(dir: &Path, run: &WarpRun) -> Result<Written> {
         .map_err(|e| Error::write(&demo, std::io::Error::other(e)))?;
     demo_bytes.push(b'\n');
     let frames = dir.join(&frames_name);
-    let frames_bytes = frames::csv_bytes(&frames, &run.frames)?;
+    let frames_bytes = crate::model::frames::csv_bytes(&frames, &run.frames)?;
     let mut report = run.report.clone();
     commit_set(
         dir,

@@ -27,8 +27,9 @@ use rapier3d_f64::prelude::{
 };
 
 use super::params::{Actuation, Params};
+use crate::geometry::shape::CollisionShape;
 use crate::math::convert::to_pose;
-use crate::robot::{CollisionShape, Joint, JointKind, Robot};
+use crate::robot::{Joint, JointKind, Robot};
 use crate::{Error, Result};
 
 /// Hand colliders are in this group and interact with every other group.

@@ -29,11 +29,12 @@ use super::params::Params;
 use super::report::{Drop, DropCause, Grip, Penetration, Stability, Tracking};
 use super::world::{GripSample, ReplayWorld};
 use crate::geometry::hull::ObjectShape;
+use crate::geometry::shape::CollisionShape;
 use crate::math::convert::to_pose;
 use crate::math::quantile::quantile_sorted;
 use crate::math::rotation::angle_between;
 use crate::model::{ContactSegment, Demo};
-use crate::robot::{CollisionShape, Robot};
+use crate::robot::Robot;
 
 /// Per-frame position [m] and rotation [rad] errors of the simulated object.
 pub fn tracking_errors(

@@ -178,8 +178,9 @@ pub use report::{
 };
 
 use crate::geometry::Mesh;
+use crate::geometry::shape::CollisionShape;
 use crate::model::{Demo, Role, Scene};
-use crate::robot::{CollisionShape, Robot};
+use crate::robot::Robot;
 use crate::{Error, Limits, Result};
 use checks::{PenetrationAcc, Placed};
 use world::{FixedItem, ReplayWorld, Tag};

@@ -32,8 +32,9 @@ use super::actuated::ActuatedHand;
 use super::params::{HandModel, Params};
 use crate::Result;
 use crate::geometry::hull::ObjectShape;
+use crate::geometry::shape::CollisionShape;
 use crate::math::convert::{from_pose, to_pose, to_vec};
-use crate::robot::{CollisionShape, Robot};
+use crate::robot::Robot;
 
 /// What a collider belongs to (stored in its `user_data`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

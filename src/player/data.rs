@@ -27,12 +27,13 @@ use serde_json::{Value, json};
 
 use super::encode::{self, Grid};
 use crate::geometry::Mesh;
+use crate::geometry::shape::ShapeKind;
 use crate::model::config::WarpConfig;
 use crate::model::demo::{Demo, Frame};
+use crate::model::frames::FrameRow;
 use crate::model::report::Report;
 use crate::model::scene::{Role, Scene, ShapeJson};
-use crate::output::frames::FrameRow;
-use crate::robot::{Robot, ShapeKind};
+use crate::robot::Robot;
 use crate::{Error, Limits, Result};
 
 /// The `format` value of a player's data.

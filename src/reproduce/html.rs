@@ -17,8 +17,8 @@ use plotters::prelude::*;
 
 use super::tables::{self, Table};
 use super::{ROBUSTNESS_CONFIG, Reproduction};
+use crate::model::frames::FrameRow;
 use crate::model::json::write_atomic;
-use crate::output::frames::FrameRow;
 use crate::{Error, Result};
 
 const W: u32 = 760;

@@ -26,8 +26,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::hand::ik::{Objective, Solver};
+use crate::hand::ik::Solver;
 use crate::hand::robustness::{Corruption, corrupt};
+use crate::model::Objective;
 use crate::model::report::Report;
 use crate::output::progress;
 use crate::pipeline::{self, HandMethod, Inputs, Options};

@@ -17,7 +17,7 @@ use std::fmt::{self, Display};
 use nalgebra::Isometry3;
 
 use super::model::{JointKind, Robot};
-use super::shape::CollisionShape;
+use crate::geometry::shape::CollisionShape;
 
 /// Formats a limit: `-0.350`, or `-inf`/`inf` for an unbounded side.
 fn limit(v: f64) -> String {

@@ -6,22 +6,24 @@
 //!   half (`<origin>`, `<collision>`, mesh paths) lives in the private `urdf_geometry`.
 //! - [`kinematics`]: allocation-free [`Robot::forward_kinematics`] and
 //!   [`Robot::point_jacobian`] with the wrist parameterisation `R' = exp([δω]×) R`.
-//! - [`shape`]: collision shapes as parry shapes, and deterministic surface points.
 //! - [`probes`]: penetration probes of the collision geometry against an object's distance.
 //! - [`describe`]: the text of `dexwarp robot URDF`.
+//! - [`bind`]: a demonstration's robot loaded and its joints ordered as the robot's.
+//!
+//! Link collision geometry is [`crate::geometry::shape::CollisionShape`], the type scene
+//! items use too.
 
+pub mod bind;
 pub mod describe;
 pub mod kinematics;
 pub mod model;
 pub mod probes;
-pub mod shape;
 pub mod urdf;
 mod urdf_geometry;
 
 pub use kinematics::{WRIST_DOF, apply_wrist_step};
 pub use model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};
 pub use probes::{Probe, Probes};
-pub use shape::{CollisionShape, ShapeKind, SurfaceSampling};
 
 /// `robots/human_hand.urdf` of this repository, loaded (the unit tests' hand).
 #[cfg(test)]

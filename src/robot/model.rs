@@ -20,7 +20,7 @@ use std::path::PathBuf;
 
 use nalgebra::{Isometry3, Point3, Unit, Vector3};
 
-use super::shape::CollisionShape;
+use crate::geometry::shape::CollisionShape;
 
 /// Index of a link in [`Robot::links`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]

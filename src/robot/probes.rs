@@ -23,7 +23,7 @@
 
 use nalgebra::{Isometry3, Point3, Vector3};
 
-use super::shape::{CollisionShape, ShapeKind, SurfaceSampling};
+use crate::geometry::shape::{CollisionShape, ShapeKind, SurfaceSampling};
 use crate::geometry::{ObjectSdf, SphereTree};
 
 /// Largest distance between neighbouring probes on a capsule's axis [m].

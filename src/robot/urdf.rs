@@ -16,9 +16,9 @@ use std::sync::Arc;
 use nalgebra::{Unit, Vector3};
 
 use super::model::{Joint, JointId, JointKind, Link, LinkId, Mimic, Robot};
-use super::shape::SurfaceSampling;
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
+use crate::geometry::shape::SurfaceSampling;
 use crate::limits::Limits;
 
 impl Robot {
@@ -98,10 +98,10 @@ impl Robot {
     }
 
     /// Recomputes every link's surface points and normals with `sampling` (see
-    /// [`super::shape`] for the layout on each primitive).
+    /// [`crate::geometry::shape`] for the layout on each primitive).
     ///
     /// Where shapes of one link overlap, points buried more than
-    /// [`BURIED_DEPTH`](super::shape::BURIED_DEPTH) inside another shape of the same link are
+    /// [`BURIED_DEPTH`](crate::geometry::shape::BURIED_DEPTH) inside another shape of the same link are
     /// dropped: they can never touch anything.
     pub fn sample_surface_points(&mut self, sampling: &SurfaceSampling) {
         let mut points = Vec::new();
@@ -115,10 +115,9 @@ impl Robot {
                 normals.clear();
                 shape.sample_surface(sampling, &mut points, &mut normals);
                 for (p, n) in points.iter().zip(&normals) {
-                    let buried =
-                        link.collision.iter().enumerate().any(|(o, other)| {
-                            o != k && other.depth_of(p) > super::shape::BURIED_DEPTH
-                        });
+                    let buried = link.collision.iter().enumerate().any(|(o, other)| {
+                        o != k && other.depth_of(p) > crate::geometry::shape::BURIED_DEPTH
+                    });
                     if !buried {
                         link.surface_points.push(*p);
                         link.surface_normals.push(*n);

@@ -9,10 +9,10 @@ use std::sync::Arc;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-use super::shape::{CollisionShape, ShapeKind};
 use super::urdf::Loader;
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
+use crate::geometry::shape::{CollisionShape, ShapeKind};
 
 impl Loader<'_> {
     /// An URDF `<origin xyz rpy>` as an isometry: `R = R_z(yaw) · R_y(pitch) · R_x(roll)`

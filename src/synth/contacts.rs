@@ -26,8 +26,9 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::proximity::ObjectGeometry;
+use crate::geometry::shape::SurfaceSampling;
 use crate::model::Contact;
-use crate::robot::{LinkId, Robot, SurfaceSampling};
+use crate::robot::{LinkId, Robot};
 
 /// How correspondences are extracted.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,7 +75,7 @@ pub fn hand_samples(robot: &Robot, spacing_m: f64) -> Vec<(LinkId, Point3<f64>)>
             let buried = link
                 .collision
                 .iter()
-                .any(|s| s.depth_of(&p) > crate::robot::shape::BURIED_DEPTH);
+                .any(|s| s.depth_of(&p) > crate::geometry::shape::BURIED_DEPTH);
             if !buried {
                 out.push((LinkId(i as u32), p));
             }

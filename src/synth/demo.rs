@@ -30,9 +30,10 @@ use super::objects::ObjectKind;
 use super::proximity::{ObjectGeometry, penetration};
 use super::templates;
 use crate::geometry::Mesh;
+use crate::geometry::shape::{CollisionShape, ShapeKind};
 use crate::model::demo::ObjectInfo;
 use crate::model::{Contact, Demo, Frame};
-use crate::robot::{CollisionShape, Robot, ShapeKind};
+use crate::robot::Robot;
 use crate::{Error, Result};
 
 /// Frames of each phase.

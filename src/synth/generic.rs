@@ -42,7 +42,8 @@ use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
 use super::grasp::{GraspTemplate, PadTarget, hand_rotation};
 use super::proximity::ObjectGeometry;
-use crate::robot::{JointKind, LinkId, Robot, SurfaceSampling, WRIST_DOF};
+use crate::geometry::shape::SurfaceSampling;
+use crate::robot::{JointKind, LinkId, Robot, WRIST_DOF};
 
 /// Distance from a pad's surface point to its centre [m].
 pub const PAD_RADIUS_M: f64 = 0.008;

@@ -21,8 +21,9 @@
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 use super::proximity::{ObjectGeometry, link_depth, penetration};
+use crate::geometry::shape::CollisionShape;
 use crate::hand::ik::{IkSolver, Params as IkParams, ResolvedContact};
-use crate::robot::{CollisionShape, Robot};
+use crate::robot::Robot;
 
 /// The hand families synthesis knows, recognised by their links.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -272,7 +273,7 @@ pub fn solve(
         threshold_mm: params.threshold_mm,
         max_iterations: params.max_iterations,
         barrier_weight: 0.0,
-        objective: crate::hand::ik::Objective::Paper,
+        objective: crate::model::Objective::Paper,
         stall_decrease: 1e-6,
         ..IkParams::default()
     };
@@ -433,7 +434,7 @@ const TURNS: [(f64, f64); 7] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::ShapeKind;
+    use crate::geometry::shape::ShapeKind;
     use crate::synth::objects::ObjectKind;
     use crate::synth::templates::template;
     use std::path::Path;

@@ -22,8 +22,9 @@ use std::sync::Arc;
 
 use crate::geometry::Mesh;
 use crate::geometry::sdf::{ObjectSdf, SurfacePoint, object_sdf};
+use crate::geometry::shape::{CollisionShape, ShapeKind};
 use crate::math::convert::to_pose;
-use crate::robot::{CollisionShape, LinkId, Robot, ShapeKind};
+use crate::robot::{LinkId, Robot};
 
 /// An object mesh prepared for distance queries, in the object frame: the shared signed
 /// distance field of [`crate::geometry::sdf`] (exact queries here, the grid in the IK).
@@ -224,7 +225,7 @@ mod tests {
 
     #[test]
     fn a_capsule_pressed_into_the_cube_reports_its_depth() {
-        use crate::robot::ShapeKind;
+        use crate::geometry::shape::ShapeKind;
         let geo = ObjectGeometry::new(ObjectKind::Cube.mesh()).unwrap();
         let capsule = CollisionShape::new(
             ShapeKind::Capsule {

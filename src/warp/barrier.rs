@@ -33,21 +33,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::geometry::Mesh;
 use crate::math::convert::{from_point, to_point};
+use crate::model::PushoutMode;
 use crate::model::report::NarrowGap;
 use crate::model::scene::{SceneItem, ShapeJson};
 use crate::warp::plan::WarpPlan;
 use crate::{Error, Limits, Result};
-
-/// Barrier push-out mode (stage 2).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PushoutMode {
-    /// The paper's: convex hull inflated about its centroid, push along the centroid ray.
-    #[default]
-    Paper,
-    /// Exact clearance: the object's bounding ball must clear the barrier's hull.
-    Exact,
-}
 
 /// Parameters of the push-out.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -62,6 +62,27 @@ pub struct ObjectParams {
     pub retime: retime::Params,
 }
 
+impl ObjectParams {
+    /// The parameters of the three object stages a config's parameters ask for.
+    pub fn from_config(params: &crate::model::WarpParams) -> ObjectParams {
+        ObjectParams {
+            spatial: spatial::Params {
+                alpha_m: params.alpha_m,
+            },
+            barrier: barrier::Params {
+                mode: params.pushout,
+                step_m: params.pushout_step_m,
+                ..barrier::Params::default()
+            },
+            retime: retime::Params {
+                mode: params.retime,
+                continuous_speed: params.continuous_speed,
+                ..retime::Params::default()
+            },
+        }
+    }
+}
+
 /// Everything the object stages produce: the plan, each stage's output and stats.
 #[derive(Clone, Debug)]
 pub struct ObjectWarp {

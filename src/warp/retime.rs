@@ -45,31 +45,7 @@ use serde::{Deserialize, Serialize};
 use super::ObjectPath;
 use super::plan::WarpPlan;
 use crate::math::bspline::BSpline;
-
-/// Timewarp rule of the retiming (stage 3; see the module docs).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum RetimeMode {
-    /// Constant speed along each segment between waypoints (the paper).
-    #[default]
-    Chord,
-    /// Keep the demonstration's speed profile, scaled by the stretch of each step.
-    Speed,
-    /// Chord length without a floor, as the paper's reference code: resting frames get almost
-    /// no output time ([`PAPER_EPS_M`] keeps τ strictly increasing).
-    Paper,
-}
-
-impl RetimeMode {
-    /// The name used in config files and reports.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            RetimeMode::Chord => "chord",
-            RetimeMode::Speed => "speed",
-            RetimeMode::Paper => "paper",
-        }
-    }
-}
+use crate::model::RetimeMode;
 
 /// `paper` mode: length added to every step [m], so a resting step still takes a sliver of
 /// output time and τ is strictly increasing. 1e-8 m is the shift the paper's reference code

@@ -11,7 +11,8 @@
 
 use std::path::{Path, PathBuf};
 
-use dexwarp::robot::{Robot, ShapeKind};
+use dexwarp::geometry::shape::ShapeKind;
+use dexwarp::robot::Robot;
 
 use crate::fixtures::{dexwarp, repo, stderr};
 
@@ -106,7 +107,7 @@ fn mesh_links_are_convex_parts_and_sampled_at_the_spacing() {
         "mesh tip {n_mesh} points, capsule tip {n_capsule}"
     );
     // The mesh's own points are at least the spacing apart.
-    let sampling = dexwarp::robot::SurfaceSampling {
+    let sampling = dexwarp::geometry::shape::SurfaceSampling {
         spacing: 0.006,
         max_per_shape: 10_000,
     };

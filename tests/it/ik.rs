@@ -2,20 +2,20 @@
 //!
 //! Correctness only: timing lives in `benches/ik.rs`.
 
-use dexwarp::hand::ik::{self, IkSolver, Params, ResolvedContact, Solver, WarmStart};
+use dexwarp::hand::ik::{self, IkSolver, Params, ResolvedContact, Solver};
 use dexwarp::hand::{HandPath, baseline};
 use dexwarp::warp::ObjectWarp;
-use dexwarp::warp::retime::RetimeMode;
 use dexwarp::{metrics, pipeline};
 use std::sync::LazyLock;
 
+use dexwarp::geometry::shape::{CollisionShape, ShapeKind};
 use dexwarp::hand::robustness::{Corruption, corrupt};
 use dexwarp::hand::smooth;
-use dexwarp::robot::{CollisionShape, ShapeKind};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 
 use crate::support::{GraspDemo, GraspOptions};
+use dexwarp::model::{RetimeMode, WarmStart};
 
 fn small() -> GraspDemo {
     GraspDemo::build(&GraspOptions {

@@ -7,7 +7,8 @@
 use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
 
-use dexwarp::robot::{JointKind, LinkId, Robot, ShapeKind, WRIST_DOF, apply_wrist_step};
+use dexwarp::geometry::shape::ShapeKind;
+use dexwarp::robot::{JointKind, LinkId, Robot, WRIST_DOF, apply_wrist_step};
 use dexwarp::{Error, Limits};
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -226,7 +227,7 @@ fn collision_shapes_and_surface_points() {
         }
     }
     let before = robot.surface_point_count();
-    robot.sample_surface_points(&dexwarp::robot::SurfaceSampling {
+    robot.sample_surface_points(&dexwarp::geometry::shape::SurfaceSampling {
         spacing: 0.004,
         max_per_shape: 10_000,
     });

@@ -9,6 +9,7 @@ mod harden;
 mod html;
 mod ik;
 mod kinematics;
+mod layers;
 mod margin;
 mod model;
 mod nonpen;

@@ -4,11 +4,12 @@
 use std::path::Path;
 
 use dexwarp::Limits;
-use dexwarp::hand::ik::{Objective, Solver, StopReason};
+use dexwarp::hand::ik::{Solver, StopReason};
 use dexwarp::model::config::{ConfigFile, WarpConfig};
 use dexwarp::pipeline::{self, HandMethod, Inputs, Options};
 
 use crate::fixtures::repo;
+use dexwarp::model::Objective;
 
 fn warp(
     config: &Path,
@@ -153,7 +154,7 @@ fn no_frame_ends_worse_than_its_warm_start() {
         let params = ik::Params {
             solver,
             max_iterations: if solver == Solver::Adam { 200 } else { 0 },
-            warm_start: ik::WarmStart::FollowObject,
+            warm_start: dexwarp::model::WarmStart::FollowObject,
             ..ik::Params::default()
         };
         let (_, stats) = ik::run(
@@ -199,7 +200,7 @@ fn a_pure_translation_returns_the_rigid_transfer() {
     file.barriers.clear();
     file.start = Some([p0.x, p0.y, p0.z]);
     file.end = Some([p1.x, p1.y, p1.z]);
-    file.params.retime = dexwarp::warp::retime::RetimeMode::Speed;
+    file.params.retime = dexwarp::model::RetimeMode::Speed;
     file.params.threshold_mm = 10.0;
     let path = dir.path().join("translated.json");
     std::fs::write(&path, serde_json::to_string_pretty(&file).unwrap()).unwrap();

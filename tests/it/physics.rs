@@ -12,12 +12,13 @@ use std::path::{Path, PathBuf};
 
 use dexwarp::Limits;
 use dexwarp::geometry::Mesh;
+use dexwarp::geometry::shape::{CollisionShape, ShapeKind};
 use dexwarp::model::demo::ObjectInfo;
 use dexwarp::model::scene::ShapeJson;
 use dexwarp::model::{Contact, Demo, Frame, Role, Scene, SceneItem};
 use dexwarp::physics::world::{FixedItem, GripSample, ReplayWorld, Tag};
 use dexwarp::physics::{DropCause, Params, PhysicsReport, object_shape, validate};
-use dexwarp::robot::{CollisionShape, Robot, ShapeKind};
+use dexwarp::robot::Robot;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
 const G: f64 = 9.81;

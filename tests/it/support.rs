@@ -17,12 +17,12 @@
 use std::path::{Path, PathBuf};
 
 use dexwarp::Limits;
+use dexwarp::model::RetimeMode;
 use dexwarp::model::config::{ConfigFile, WarpConfig};
 use dexwarp::model::demo::ObjectInfo;
 use dexwarp::model::{Contact, Demo, Frame, WarpParams};
 use dexwarp::robot::Robot;
 use dexwarp::synth::objects::{ObjectKind, object_mesh};
-use dexwarp::warp::retime::RetimeMode;
 use dexwarp::warp::{ObjectParams, ObjectPath, ObjectWarp, WarpPlan, warp_object};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
@@ -292,11 +292,10 @@ impl GraspDemo {
 
 /// Object-stage parameters with the given retiming rule.
 pub fn retime_params(mode: RetimeMode) -> ObjectParams {
-    WarpParams {
+    ObjectParams::from_config(&WarpParams {
         retime: mode,
         ..WarpParams::default()
-    }
-    .object_params()
+    })
 }
 
 /// A validated config with these waypoints and no barriers.

@@ -5,9 +5,8 @@ use std::path::Path;
 
 use dexwarp::model::config::{ConfigFile, WarpConfig};
 use dexwarp::model::{ContactSegment, WarpParams};
+use dexwarp::model::{PushoutMode, RetimeMode};
 use dexwarp::warp::barrier::Barrier;
-use dexwarp::warp::barrier::PushoutMode;
-use dexwarp::warp::retime::RetimeMode;
 use dexwarp::warp::{ObjectParams, ObjectPath, WarpPlan, warp_object};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -48,11 +47,10 @@ fn base_json() -> serde_json::Value {
 }
 
 fn params(mode: RetimeMode) -> ObjectParams {
-    WarpParams {
+    ObjectParams::from_config(&WarpParams {
         retime: mode,
         ..WarpParams::default()
-    }
-    .object_params()
+    })
 }
 
 fn run(

@@ -5,9 +5,10 @@
 use nalgebra::{Isometry3, Point3, Vector3};
 use rapier3d_f64::parry::math::Pose;
 
+use crate::geometry::shape::CollisionShape;
 use crate::geometry::{ObjectSdf, SphereTree};
 use crate::math::convert::{from_point, from_vec, to_point, to_pose};
-use crate::robot::{CollisionShape, LinkId, Robot, WRIST_DOF};
+use crate::robot::{LinkId, Robot, WRIST_DOF};
 
 /// Most surface points in a leaf of a link's surface tree.
 const SURFACE_LEAF_SIZE: usize = 8;
@@ -285,7 +286,7 @@ impl<'a> Geometry<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::ShapeKind;
+    use crate::geometry::shape::ShapeKind;
     use nalgebra::{Translation3, UnitQuaternion};
 
     /// `min_clearance` is the smallest SDF over every surface point and barrier, whatever

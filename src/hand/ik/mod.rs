@@ -91,8 +91,9 @@ use serde::{Deserialize, Serialize};
 
 use super::HandPath;
 use crate::geometry::ObjectSdf;
-use crate::model::{Contact, Demo};
-use crate::robot::{CollisionShape, LinkId, Robot, WRIST_DOF, apply_wrist_step};
+use crate::geometry::shape::CollisionShape;
+use crate::model::{Contact, Demo, Objective, WarmStart};
+use crate::robot::{LinkId, Robot, WRIST_DOF, apply_wrist_step};
 use crate::warp::ObjectWarp;
 
 /// Length scale of the non-penetration residual [m] (1 mm).
@@ -161,40 +162,6 @@ impl FromStr for Solver {
     }
 }
 
-/// What the IK minimizes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Objective {
-    /// Contacts and barriers as in the paper, plus non-penetration of the object (default).
-    #[default]
-    NonPenetrating,
-    /// The paper's objective as printed: contacts and barriers only.
-    Paper,
-}
-
-impl Objective {
-    /// The name used in configs, reports and on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Objective::NonPenetrating => "non_penetrating",
-            Objective::Paper => "paper",
-        }
-    }
-}
-
-impl FromStr for Objective {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "non_penetrating" => Ok(Objective::NonPenetrating),
-            "paper" => Ok(Objective::Paper),
-            _ => Err(format!(
-                "unknown IK objective {s:?}; expected \"non_penetrating\" or \"paper\""
-            )),
-        }
-    }
-}
-
 /// Why a frame's solve ended.
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize,
@@ -229,18 +196,6 @@ impl StopReason {
             StopReason::NonFinite => "non_finite",
         }
     }
-}
-
-/// Where each frame's solve starts.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum WarmStart {
-    /// The previous frame's solution, unchanged (docs/METHOD.md, the paper). Default.
-    #[default]
-    Previous,
-    /// The previous frame's solution carried along by the object's motion between the two
-    /// frames, `W ← O(t)·O(t−1)⁻¹·W` (beyond the paper: fewer iterations, less lag).
-    FollowObject,
 }
 
 /// Parameters of the contact IK.
@@ -985,7 +940,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::ShapeKind;
+    use crate::geometry::shape::ShapeKind;
     use nalgebra::{Translation3, UnitQuaternion};
 
     fn hand() -> Robot {

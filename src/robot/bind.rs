@@ -1,10 +1,15 @@
 //! Binding a demonstration to its robot.
 
-use super::demo::Demo;
-use crate::robot::Robot;
-use crate::{Error, Result};
+use super::Robot;
+use crate::model::Demo;
+use crate::{Error, Limits, Result};
 
 impl Demo {
+    /// Loads the demonstration's robot, rooted at its `wrist_link` when it names one.
+    pub fn load_robot(&self, limits: &Limits) -> Result<Robot> {
+        Robot::from_urdf_file_at(&self.robot, limits, self.wrist_link.as_deref())
+    }
+
     /// Checks the demonstration against its robot and reorders every frame's joints into the
     /// robot's actuated order (so `frames[i].joints[k]` is actuated joint `k`). Fails with
     /// the JSON path when a joint or contact link does not exist on the robot.

@@ -1,0 +1,89 @@
+//! The variants of the stages a config chooses among, as plain data: each stage reads the
+//! choice from here, and the config file, the command line and the reports name it with
+//! the same words.
+
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+/// Barrier push-out mode (stage 2).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PushoutMode {
+    /// The paper's: convex hull inflated about its centroid, push along the centroid ray.
+    #[default]
+    Paper,
+    /// Exact clearance: the object's bounding ball must clear the barrier's hull.
+    Exact,
+}
+
+/// Timewarp rule of the retiming (stage 3; `warp::retime` says what each rule does).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RetimeMode {
+    /// Constant speed along each segment between waypoints (the paper).
+    #[default]
+    Chord,
+    /// Keep the demonstration's speed profile, scaled by the stretch of each step.
+    Speed,
+    /// Chord length without a floor, as the paper's reference code: resting frames get almost
+    /// no output time (the retiming's `PAPER_EPS_M` keeps τ strictly increasing).
+    Paper,
+}
+
+impl RetimeMode {
+    /// The name used in config files and reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RetimeMode::Chord => "chord",
+            RetimeMode::Speed => "speed",
+            RetimeMode::Paper => "paper",
+        }
+    }
+}
+
+/// What the IK minimizes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Objective {
+    /// Contacts and barriers as in the paper, plus non-penetration of the object (default).
+    #[default]
+    NonPenetrating,
+    /// The paper's objective as printed: contacts and barriers only.
+    Paper,
+}
+
+impl Objective {
+    /// The name used in configs, reports and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Objective::NonPenetrating => "non_penetrating",
+            Objective::Paper => "paper",
+        }
+    }
+}
+
+impl FromStr for Objective {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "non_penetrating" => Ok(Objective::NonPenetrating),
+            "paper" => Ok(Objective::Paper),
+            _ => Err(format!(
+                "unknown IK objective {s:?}; expected \"non_penetrating\" or \"paper\""
+            )),
+        }
+    }
+}
+
+/// Where each frame's solve starts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WarmStart {
+    /// The previous frame's solution, unchanged (docs/METHOD.md, the paper). Default.
+    #[default]
+    Previous,
+    /// The previous frame's solution carried along by the object's motion between the two
+    /// frames, `W ← O(t)·O(t−1)⁻¹·W` (beyond the paper: fewer iterations, less lag).
+    FollowObject,
+}
