@@ -2,7 +2,8 @@
 //!
 //! Every error names the file it came from and, for structured input, the JSON path of the
 //! offending field (`frames[12].contacts[3].link`), what was found and what was expected.
-//! `anyhow` is used only in `main.rs`; everything below it returns [`Error`].
+//! `anyhow` is used only in the command line (`src/bin/dexwarp`); everything below it returns
+//! [`Error`].
 
 use std::path::{Path, PathBuf};
 

@@ -251,7 +251,7 @@ fn every_module_imports_only_the_layers_below_it() {
             .to_string_lossy();
         let module = top.trim_end_matches(".rs");
         let Some(&own) = rank.get(module) else {
-            continue; // lib.rs and main.rs: the root and the binary sit above every layer
+            continue; // lib.rs, and the binary in bin/: above every layer
         };
         let text = std::fs::read_to_string(file).unwrap();
         for used in imports(&without_tests(&code_only(&text))) {

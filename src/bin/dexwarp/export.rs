@@ -1,0 +1,86 @@
+//! `dexwarp export`.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use dexwarp::Limits;
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ExportFormat {
+    /// LeRobot v3.0 (parquet and meta/), state only.
+    Lerobot,
+    /// robomimic HDF5 (one file; needs a build with the cargo feature robomimic).
+    Robomimic,
+}
+
+/// Write the trajectories below DIR (reports with their warped demonstrations, or
+/// .demo.json files) as one training dataset, quality figures as per-episode columns.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "Formats: lerobot (LeRobot v3.0, state only, a folder), robomimic (one HDF5 file; a build with --features robomimic and the HDF5 C library). The column mapping and the HDF5 layout are in the README (Export and import).\n\nExamples:\n  dexwarp export reports/latest --format lerobot --robot human_hand --out out/dataset\n  dexwarp export out/aug/mug --format lerobot --only-passing --out out/mug_kept\n  dexwarp export out/mug.demo.json --format lerobot --fps 30 --out out/mug_lerobot\n  dexwarp export out/aug/mug --format robomimic --out out/mug.hdf5"
+)]
+pub struct ExportArgs {
+    /// Folders (searched recursively for report.json) or demonstration files.
+    #[arg(required = true, value_name = "DIR")]
+    inputs: Vec<PathBuf>,
+    /// Dataset format.
+    #[arg(long, value_enum)]
+    format: ExportFormat,
+    /// Dataset folder (lerobot) or file (robomimic) to create, written atomically.
+    #[arg(long, value_name = "OUT")]
+    out: PathBuf,
+    /// Only trajectories whose physics verdict is pass.
+    #[arg(long)]
+    only_passing: bool,
+    /// Frame rate of the dataset [Hz]; must divide the trajectories' rate (every k-th frame is kept).
+    #[arg(long, value_name = "F")]
+    fps: Option<u32>,
+    /// Only trajectories of this robot (URDF file stem, e.g. human_hand); needed when DIR holds several.
+    #[arg(long, value_name = "NAME")]
+    robot: Option<String>,
+    /// Largest data file [MB] before the next one starts (LeRobot's data_files_size_in_mb).
+    #[arg(long, value_name = "MB", default_value_t = 100)]
+    data_file_mb: u64,
+    /// Replace OUT if it exists.
+    #[arg(long)]
+    force: bool,
+}
+
+pub fn run(args: ExportArgs, limits: Limits) -> Result<()> {
+    let ExportArgs {
+        inputs,
+        format,
+        out,
+        only_passing,
+        fps,
+        robot,
+        data_file_mb,
+        force,
+    } = args;
+    let mut options = dexwarp::export::ExportOptions::new(inputs, out.clone());
+    options.only_passing = only_passing;
+    options.fps = fps;
+    options.robot = robot;
+    options.data_file_mb = data_file_mb.max(1);
+    options.force = force;
+    options.progress = true;
+    let t = std::time::Instant::now();
+    let done = match format {
+        ExportFormat::Lerobot => dexwarp::export::export_lerobot(&options, &limits)?,
+        ExportFormat::Robomimic => dexwarp::export::export_robomimic(&options, &limits)?,
+    };
+    for (p, why) in &done.skipped {
+        eprintln!("skipped {}: {why}", p.display());
+    }
+    eprintln!(
+        "wrote {}: {} episodes, {} frames, {} data file(s), {} skipped, in {:.1} s",
+        out.display(),
+        done.episodes,
+        done.frames,
+        done.data_files,
+        done.skipped.len(),
+        t.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

@@ -1,0 +1,85 @@
+//! `dexwarp validate`.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Args;
+use dexwarp::Limits;
+use dexwarp::pipeline;
+
+use crate::args::{OutDir, PhysicsArgs, verdict_line};
+
+/// Replay any demonstration, warped or original, in physics; write DIR/report.json and
+/// DIR/frames.csv.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "The scene and barriers are the ones the demonstration names (warp and synth outputs name theirs). Exits 0 whatever the verdict (read it in report.json), or 3 on a failed verdict with --strict.\n\nExamples:\n  dexwarp validate scenes/demos/mug.demo.json --out out/mug_check\n  dexwarp validate out/mug/mug_pass_wall.demo.json --out out/mug_check\n  dexwarp validate my.demo.json --scene scenes/kitchen.json --barrier wall_back --out out/x"
+)]
+pub struct ValidateArgs {
+    /// Demonstration (`dexwarp.demo/1`).
+    demo: PathBuf,
+    #[command(flatten)]
+    out: OutDir,
+    /// Scene to replay in instead of the demonstration's own.
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// Barrier to check against (repeat for several); default: the demonstration's own.
+    #[arg(long = "barrier", value_name = "NAME")]
+    barriers: Vec<String>,
+    #[command(flatten)]
+    physics: PhysicsArgs,
+    /// Exit non-zero (status 3) when the physics verdict is fail.
+    #[arg(long)]
+    strict: bool,
+}
+
+pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
+    let ValidateArgs {
+        demo,
+        out,
+        scene,
+        barriers,
+        physics,
+        strict,
+    } = args;
+    let out = out.out;
+    let (report, frames) = pipeline::validate(
+        &demo,
+        scene.as_deref(),
+        (!barriers.is_empty()).then_some(barriers.as_slice()),
+        &physics.params(),
+        &limits,
+    )?;
+    dexwarp::output::check_not_inputs(
+        &out,
+        &["frames.csv".into(), dexwarp::output::REPORT.into()],
+        &[demo.as_path()],
+    )?;
+    let frames_path = out.join("frames.csv");
+    let mut report = report;
+    dexwarp::output::commit_set(
+        &out,
+        vec![(
+            "frames.csv".into(),
+            dexwarp::model::frames::csv_bytes(&frames_path, &frames)?,
+        )],
+        &mut report,
+    )?;
+    let physics = report.physics.as_ref();
+    eprintln!(
+        "{}: physics {}{}; D_C {:.2} mm; report in {}",
+        demo.display(),
+        physics.map_or("not run", |p| p.verdict.as_str()),
+        physics
+            .filter(|p| !p.reasons.is_empty())
+            .map(|p| format!(" ({})", p.reasons.join("; ")))
+            .unwrap_or_default(),
+        report.metrics.d_c_mm.warped,
+        out.join("report.json").display()
+    );
+    eprintln!("{}", verdict_line(&report));
+    if strict && physics.is_some_and(|p| p.verdict != "pass") {
+        std::process::exit(3);
+    }
+    Ok(())
+}
