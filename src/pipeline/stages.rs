@@ -1,0 +1,263 @@
+//! The stages of [`super::warp`] that take more than a line: the plan and its limits, the
+//! object stages' timing, the contact IK with its smoothing, the guard, the physics replay.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::{Inputs, Options, checks};
+use crate::geometry::ObjectSdf;
+use crate::hand::ik;
+use crate::hand::{HandPath, baseline as rigid, guard as hand_guard, smooth};
+use crate::metrics;
+use crate::model::provenance::Provenance;
+use crate::model::{Demo, Objective};
+use crate::physics;
+use crate::robot::Robot;
+use crate::warp::barrier::Barrier;
+use crate::warp::{ObjectParams, ObjectPath, ObjectWarp, WarpPlan, warp_object};
+use crate::{Error, Result};
+
+/// Wall time of each stage [s], by stage name (the report's `timing_s`).
+pub(super) type Timing = BTreeMap<String, f64>;
+
+/// How long the IK hand's difference from the rigid transfer fades out beyond each end of
+/// the contact segment [s] (stage 5c, [`smooth::ease_ends`]).
+const EASE_S: f64 = 0.25;
+
+/// What contact IK left besides the hand: the unsmoothed solution, its statistics, and what
+/// the guard holds the smoothed hand to.
+pub(super) struct IkRun {
+    /// The IK's hand before smoothing.
+    pub raw: HandPath,
+    pub stats: ik::Stats,
+    /// Deepest a finger may sit in the object in a converged frame [mm].
+    pub tolerance_mm: f64,
+    /// The object's distance field and the tolerance [m] (non-penetrating objective only).
+    pub guard_with: Option<(Arc<ObjectSdf>, f64)>,
+}
+
+/// The warp plan of the inputs (contact segment, output frames), refused before any work
+/// when its output or its physics replay is over the limits.
+pub(super) fn plan(inputs: &Inputs, options: &Options, input: &ObjectPath) -> Result<WarpPlan> {
+    let Inputs { config, demo, .. } = inputs;
+    let segment = demo.contact_segment().ok_or_else(|| {
+        Error::invalid(
+            &demo.source,
+            "frames",
+            "no frame has contact correspondences; a warp needs an in-contact segment",
+        )
+    })?;
+    let plan = WarpPlan::new(config, &input.positions, segment)?;
+    options
+        .limits
+        .check_output_frames(&config.source, plan.frames_out() as u64)?;
+    if let Some(p) = &options.physics {
+        checks::physics_work(
+            &options.limits,
+            &config.source,
+            plan.frames_out(),
+            demo.fps,
+            p,
+        )?;
+    }
+    Ok(plan)
+}
+
+/// Stages 1-3: spatial warp, barrier push-out, retiming, each timed.
+pub(super) fn object(
+    inputs: &Inputs,
+    input: &ObjectPath,
+    plan: &WarpPlan,
+    barriers: &[Barrier],
+    params: &ObjectParams,
+    timing: &mut Timing,
+) -> Result<ObjectWarp> {
+    let radius = inputs.mesh.bounding_radius();
+    let source = &inputs.config.source;
+    let object = warp_object(input, plan, barriers, radius, params, source)?;
+    timing.insert("spatial".into(), object.spatial.stats.time_s);
+    timing.insert("barrier".into(), object.barrier.stats.time_s);
+    timing.insert("retime".into(), object.retime.stats.time_s);
+    checks::path(source, "object warp (1-3)", object.path())?;
+    Ok(object)
+}
+
+/// Stage 4, the rigid SE(3) transfer at τ.
+pub(super) fn baseline(
+    inputs: &Inputs,
+    object: &ObjectWarp,
+    timing: &mut Timing,
+) -> Result<HandPath> {
+    let clock = Instant::now();
+    let base = rigid::run(&inputs.demo, object)
+        .map_err(|e| Error::invalid(&inputs.config.source, "(hand)", e.to_string()))?;
+    timing.insert("baseline".into(), clock.elapsed().as_secs_f64());
+    Ok(base)
+}
+
+/// The run's inputs and parameters, as the report's provenance records them.
+pub(super) fn provenance(inputs: &Inputs, options: &Options) -> Provenance {
+    let Inputs { config, demo, .. } = inputs;
+    let mut provenance = Provenance::new();
+    provenance.input("config", &config.source);
+    provenance.input("demo", &demo.source);
+    provenance.input("scene", &config.scene);
+    provenance.input("robot", &demo.robot);
+    provenance.input("mesh", &demo.object.mesh);
+    provenance.parameters("warp", &config.params);
+    provenance.parameters(
+        "options",
+        &serde_json::json!({
+            "hand": options.hand,
+            "threshold_mm": options.threshold_mm.unwrap_or(config.params.threshold_mm),
+            "solver": options.solver,
+            "physics": options.physics.is_some(),
+        }),
+    );
+    provenance.parameters("limits", &options.limits);
+    if let Some(p) = &options.physics {
+        provenance.parameters("physics", p);
+    }
+    provenance
+}
+
+/// Stages 4-5 of contact IK: the per-frame solve warm-started from `base`, then smoothing
+/// inside the contact segment and the fade to the rigid transfer beyond its ends.
+pub(super) fn contact_ik(
+    inputs: &Inputs,
+    options: &Options,
+    object: &ObjectWarp,
+    base: &HandPath,
+    provenance: &mut Provenance,
+    timing: &mut Timing,
+) -> Result<(HandPath, IkRun)> {
+    let Inputs {
+        config,
+        demo,
+        robot,
+        scene,
+        mesh,
+    } = inputs;
+    let shapes = super::barriers::shapes(config, scene, &options.limits)?;
+    let object_sdf = crate::geometry::object_sdf(mesh);
+    let tolerance_mm = config.params.penetration_tolerance_mm.unwrap_or_else(|| {
+        crate::model::config::auto_penetration_tolerance_mm(
+            object_sdf.as_deref().map_or(0.0, |sdf| {
+                metrics::max_hand_object_penetration_mm(robot, demo, sdf)
+            }),
+        )
+    });
+    let params = ik::Params {
+        solver: options.solver,
+        threshold_mm: options.threshold_mm.unwrap_or(config.params.threshold_mm),
+        margin_m: config.params.margin_m,
+        steepness: config.params.steepness,
+        objective: options.objective.unwrap_or(config.params.objective),
+        penetration_tolerance_mm: tolerance_mm,
+        penetration_weight: options
+            .penetration_weight
+            .unwrap_or(config.params.penetration_weight),
+        warm_start: options.warm_start.unwrap_or(config.params.warm_start),
+        ..ik::Params::default()
+    };
+    provenance.parameters("ik", &params);
+    provenance.parameters("smooth", &smooth::Params::default());
+    let (raw, stats) = ik::run(
+        robot,
+        demo,
+        object,
+        base,
+        &shapes,
+        object_sdf.as_deref(),
+        &params,
+    );
+    timing.insert("ik".into(), stats.time_s);
+
+    // Stage 5: smoothing inside the contact segment.
+    let clock = Instant::now();
+    let range = object.plan.segment.start..=object.plan.t_end_new();
+    let (mut hand, _) = smooth::run(&raw, range.clone(), &smooth::Params::default())
+        .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
+    // Stage 5c: no jump between the IK hand and the rigid transfer at the segment's ends:
+    // the difference fades out over `EASE_S` outside it.
+    let ease = ((EASE_S * demo.fps).round() as usize).max(1);
+    smooth::ease_ends(&mut hand, base, range, ease, |q| {
+        robot.clamp(q);
+    });
+    timing.insert("smooth".into(), clock.elapsed().as_secs_f64());
+
+    let guard_with = match (params.objective, object_sdf) {
+        (Objective::NonPenetrating, Some(sdf)) => {
+            Some((sdf, params.penetration_tolerance_mm * 1e-3))
+        }
+        _ => None,
+    };
+    let ik = IkRun {
+        raw,
+        stats,
+        tolerance_mm,
+        guard_with,
+    };
+    Ok((hand, ik))
+}
+
+/// Stage 5b (non-penetrating objective): neither the smoothing, nor the fade at the
+/// segment's ends, nor the push-out may press the hand deeper into the object than the IK
+/// (or, outside the segment, the rigid transfer) left it.
+pub(super) fn guard(
+    robot: &Robot,
+    object: &ObjectWarp,
+    ik: &IkRun,
+    hand: &mut HandPath,
+    timing: &mut Timing,
+) -> Option<hand_guard::Stats> {
+    let (sdf, tolerance_m) = ik.guard_with.as_ref()?;
+    let last = hand.len() - 1;
+    let g = hand_guard::run(
+        robot,
+        sdf,
+        |t| object.path().pose(t),
+        &ik.raw,
+        hand,
+        0..=last,
+        &hand_guard::Params {
+            tolerance_m: *tolerance_m,
+            ..hand_guard::Params::default()
+        },
+    );
+    timing.insert("smooth_guard".into(), g.time_s);
+    Some(g)
+}
+
+/// Stage 6: the physics replay, of the output as its file reads back, so `dexwarp validate`
+/// of the written file gives the same report (one verdict per trajectory file).
+pub(super) fn physics(
+    inputs: &Inputs,
+    options: &Options,
+    out: &Demo,
+    timing: &mut Timing,
+) -> Result<Option<physics::PhysicsReport>> {
+    let Some(params) = &options.physics else {
+        return Ok(None);
+    };
+    let Inputs {
+        config,
+        robot,
+        scene,
+        mesh,
+        ..
+    } = inputs;
+    let p = physics::validate(
+        robot,
+        &out.as_stored(&options.limits)?,
+        scene,
+        &config.barriers,
+        mesh,
+        params,
+        &options.limits,
+    )?;
+    timing.insert("physics".into(), p.timing_s.total);
+    checks::physics(&config.source, &p)?;
+    Ok(Some(p))
+}
