@@ -22,7 +22,7 @@ use std::time::Instant;
 
 use dexwarp::hand::ik::{self, IkSolver, Params, ResolvedContact, Solver};
 use dexwarp::hand::{HandPath, baseline};
-use dexwarp::pipeline::{self, Inputs, Options};
+use dexwarp::pipeline::{self, HandMethod, Inputs, Options};
 use dexwarp::warp::ObjectWarp;
 use nalgebra::{Isometry3, Vector3};
 
@@ -124,10 +124,9 @@ const HUMAN_HAND_CONFIGS: [&str; 14] = [
 /// runs it: median over `runs` of the stage's own clock per contact-segment frame.
 fn builtin_configs(runs: usize) {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/configs");
-    let options = Options {
-        threshold_mm: Some(3.5),
-        ..Options::default()
-    };
+    let options = Options::new(HandMethod::Contact)
+        .threshold_mm(Some(3.5))
+        .physics(None);
     let mut per_frame = Vec::new();
     for name in HUMAN_HAND_CONFIGS {
         let inputs = Inputs::load(&root.join(format!("{name}.json")), None, &options.limits)

@@ -300,17 +300,11 @@ fn run_item(item: &Item, out: &Path, options: &BatchOptions) -> Outcome {
         )?;
         let run = pipeline::warp(
             &inputs,
-            &Options {
-                demo: item.demo.clone(),
-                threshold_mm: item.threshold_mm,
-                hand: item.hand,
-                solver: item.solver,
-                objective: None,
-                penetration_weight: None,
-                warm_start: None,
-                physics: Some(crate::physics::Params::default()),
-                limits: options.limits,
-            },
+            &Options::new(item.hand)
+                .demo(item.demo.clone())
+                .threshold_mm(item.threshold_mm)
+                .solver(item.solver)
+                .limits(options.limits),
         )?;
         crate::output::write_run(&dir, &run)?;
         Ok(run.report)

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use dexwarp::Limits;
 use dexwarp::math::rotation::quat_to_wxyz;
-use dexwarp::pipeline::{self, HandMethod, Inputs, Options, WarpRun};
+use dexwarp::pipeline::{self, HandMethod, Inputs, Options, PhysicsOptions, WarpRun};
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use serde::de::DeserializeOwned;
@@ -166,30 +166,29 @@ pub fn warp(
     penetration_weight: Option<f64>,
     warm_start: Option<&str>,
 ) -> PyResult<WarpResult> {
-    let options = Options {
-        demo: None,
-        threshold_mm: threshold_mm
-            .map(|t| positive_mm("threshold_mm", t))
-            .transpose()?,
-        hand: choice::<HandMethod>("hand", hand)?,
-        solver: choice("solver", solver)?,
-        objective: objective.map(|o| choice("objective", o)).transpose()?,
-        penetration_weight: match penetration_weight {
-            Some(w) if !(w.is_finite() && w >= 0.0) => {
-                return Err(crate::raise(
-                    format!(
-                        "penetration_weight: the value must not be negative: a finite number >= 0, like 2; got {w}"
-                    ),
-                    None,
-                    Some("penetration_weight".into()),
-                ));
-            }
-            w => w,
-        },
-        warm_start: warm_start.map(|w| choice("warm_start", w)).transpose()?,
-        physics: physics.then(dexwarp::physics::Params::default),
-        limits: Limits::default(),
+    let threshold_mm = threshold_mm
+        .map(|t| positive_mm("threshold_mm", t))
+        .transpose()?;
+    let penetration_weight = match penetration_weight {
+        Some(w) if !(w.is_finite() && w >= 0.0) => {
+            return Err(crate::raise(
+                format!(
+                    "penetration_weight: the value must not be negative: a finite number >= 0, like 2; got {w}"
+                ),
+                None,
+                Some("penetration_weight".into()),
+            ));
+        }
+        w => w,
     };
+    let options = Options::new(choice::<HandMethod>("hand", hand)?)
+        .threshold_mm(threshold_mm)
+        .solver(choice("solver", solver)?)
+        .objective(objective.map(|o| choice("objective", o)).transpose()?)
+        .penetration_weight(penetration_weight)
+        .warm_start(warm_start.map(|w| choice("warm_start", w)).transpose()?)
+        .physics(physics.then(PhysicsOptions::default))
+        .limits(Limits::default());
     let (config, demo) = (config.inner.clone(), demo.inner.clone());
     let (run, inputs) = py
         .detach(|| {

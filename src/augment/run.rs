@@ -462,12 +462,7 @@ fn prepare(s: &Sample, ctx: &Context, o: &AugmentOptions, stage: &Path) -> Resul
 }
 
 fn sample_options(o: &AugmentOptions, hand: HandMethod) -> Options {
-    Options {
-        hand,
-        physics: Some(crate::physics::Params::default()),
-        limits: o.limits,
-        ..Options::default()
-    }
+    Options::new(hand).limits(o.limits)
 }
 
 /// A report carrying the error of a hand run (`hand`), also written to `stage/file`.

@@ -91,6 +91,11 @@ pub struct WarpParams {
     /// Output frame of the end of the contact segment; by default the input's end shifted by
     /// the last waypoint's time shift.
     pub end_t_new: Option<f64>,
+    /// The physics replay's parameters this config sets, by name (`max_dt_s`,
+    /// `hand_friction`, `max_mean_rotation_error_deg`, ...), over the replay's defaults;
+    /// absent: the defaults. Checked against the replay's parameters when a run starts.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub physics: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
 impl Default for WarpParams {
@@ -110,6 +115,7 @@ impl Default for WarpParams {
             continuous_speed: true,
             hand_radius_m: DEFAULT_HAND_RADIUS_M,
             end_t_new: None,
+            physics: None,
         }
     }
 }

@@ -15,20 +15,15 @@ pub(super) fn hand_pushout(
     scene: &Scene,
     object: &ObjectWarp,
     hand: HandPath,
+    params: &pushout::Params,
     limits: &Limits,
 ) -> Result<(HandPath, pushout::Stats)> {
-    let params = pushout::Params {
-        radius_m: config.params.hand_radius_m,
-        mode: config.params.pushout,
-        step_m: config.params.pushout_step_m,
-        ..pushout::Params::default()
-    };
     let barriers = if params.radius_m > 0.0 {
         prepare(config, scene, params.radius_m, limits)?
     } else {
         Vec::new()
     };
-    Ok(pushout::run(hand, &object.plan, &barriers, &params))
+    Ok(pushout::run(hand, &object.plan, &barriers, params))
 }
 
 /// The barriers a config names, as world-frame collision shapes (the IK barrier term).

@@ -15,6 +15,7 @@
 
 mod barriers;
 mod checks;
+mod params;
 mod report;
 mod stages;
 mod validate;
@@ -25,6 +26,7 @@ use std::time::Instant;
 
 pub use barriers::shapes as barrier_shapes;
 pub use checks::check_hand_path;
+pub use params::{PhysicsOptions, StageParams, physics_params};
 pub use validate::{validate, validate_demo};
 
 use crate::geometry::Mesh;
@@ -33,9 +35,8 @@ use crate::hand::ik::Solver;
 use crate::model::frames::FrameRow;
 use crate::model::report::Report;
 use crate::model::{Demo, Frame, Scene, WarpConfig};
-use crate::physics;
 use crate::robot::Robot;
-use crate::warp::{ObjectParams, ObjectPath, ObjectWarp};
+use crate::warp::{ObjectPath, ObjectWarp};
 use crate::{Limits, Result};
 
 /// How the hand is recovered.
@@ -58,7 +59,9 @@ impl HandMethod {
     }
 }
 
-/// Options of one warp run that are not part of the config.
+/// Options of one warp run that are not part of the config: overrides on top of it. Build
+/// them with [`Options::new`] and its setters; [`StageParams::resolve`] turns a config and
+/// these into every stage's parameters.
 #[derive(Clone, Debug, Default)]
 pub struct Options {
     /// Demonstration to warp instead of the one the config names.
@@ -74,8 +77,9 @@ pub struct Options {
     pub penetration_weight: Option<f64>,
     /// IK warm start overriding the config's.
     pub warm_start: Option<crate::model::WarmStart>,
-    /// Physics replay parameters; `None` skips the replay (the report's `physics` is null).
-    pub physics: Option<physics::Params>,
+    /// The physics replay on top of the config's parameters; `None` skips it (the report's
+    /// `physics` is null).
+    pub physics: Option<PhysicsOptions>,
     pub limits: Limits,
 }
 
@@ -162,16 +166,23 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     } = inputs;
     let mut timing = BTreeMap::new();
     let input = ObjectPath::from_poses(demo.frames.iter().map(|f| &f.object));
-    let plan = stages::plan(inputs, options, &input)?;
+    let params = StageParams::resolve(config, options)?;
+    let plan = stages::plan(inputs, options, &params, &input)?;
     let radius = mesh.bounding_radius();
     let barriers = barriers::prepare(config, scene, radius, &options.limits)?;
-    let params = ObjectParams::from_config(&config.params);
 
     // Stages 1-3: spatial warp, barrier push-out, retiming.
-    let object = stages::object(inputs, &input, &plan, &barriers, &params, &mut timing)?;
+    let object = stages::object(
+        inputs,
+        &input,
+        &plan,
+        &barriers,
+        &params.object,
+        &mut timing,
+    )?;
     // Stage 4: the rigid transfer: the baseline hand, and contact IK's first warm start.
     let base = stages::baseline(inputs, &object, &mut timing)?;
-    let mut provenance = stages::provenance(inputs, options);
+    let mut provenance = stages::provenance(inputs, options, &params);
     // Stages 4-5: contact IK and smoothing inside the contact segment (contact IK only).
     let (hand, ik) = match options.hand {
         HandMethod::Baseline => (base, None),
@@ -179,6 +190,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             let (hand, ik) = stages::contact_ik(
                 inputs,
                 options,
+                &params,
                 &object,
                 &base,
                 &mut provenance,
@@ -188,8 +200,14 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         }
     };
     // Stage 4b: the hand's own path outside contact pushed out of the barriers.
-    let (mut hand, hand_push) =
-        barriers::hand_pushout(config, scene, &object, hand, &options.limits)?;
+    let (mut hand, hand_push) = barriers::hand_pushout(
+        config,
+        scene,
+        &object,
+        hand,
+        &params.hand_pushout,
+        &options.limits,
+    )?;
     timing.insert("hand_pushout".into(), hand_push.time_s);
     // Stage 5b: no hand pressed deeper into the object than the IK left it.
     let guard = ik
@@ -200,7 +218,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     out.scene = Some(config.scene.clone());
     out.barriers = config.barriers.clone();
     // Stage 6: physics replay.
-    let physics = stages::physics(inputs, options, &out, &mut timing)?;
+    let physics = stages::physics(inputs, options, &params, &out, &mut timing)?;
     // Stages 7-8: metrics and report.
     let clock = Instant::now();
     let (mut report, frames) = report::warp_report(

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::{Inputs, Options, checks};
+use super::{Inputs, Options, StageParams, checks};
 use crate::geometry::ObjectSdf;
 use crate::hand::ik;
 use crate::hand::{HandPath, baseline as rigid, guard as hand_guard, smooth};
@@ -39,7 +39,12 @@ pub(super) struct IkRun {
 
 /// The warp plan of the inputs (contact segment, output frames), refused before any work
 /// when its output or its physics replay is over the limits.
-pub(super) fn plan(inputs: &Inputs, options: &Options, input: &ObjectPath) -> Result<WarpPlan> {
+pub(super) fn plan(
+    inputs: &Inputs,
+    options: &Options,
+    params: &StageParams,
+    input: &ObjectPath,
+) -> Result<WarpPlan> {
     let Inputs { config, demo, .. } = inputs;
     let segment = demo.contact_segment().ok_or_else(|| {
         Error::invalid(
@@ -52,7 +57,7 @@ pub(super) fn plan(inputs: &Inputs, options: &Options, input: &ObjectPath) -> Re
     options
         .limits
         .check_output_frames(&config.source, plan.frames_out() as u64)?;
-    if let Some(p) = &options.physics {
+    if let Some(p) = &params.physics {
         checks::physics_work(
             &options.limits,
             &config.source,
@@ -97,7 +102,7 @@ pub(super) fn baseline(
 }
 
 /// The run's inputs and parameters, as the report's provenance records them.
-pub(super) fn provenance(inputs: &Inputs, options: &Options) -> Provenance {
+pub(super) fn provenance(inputs: &Inputs, options: &Options, params: &StageParams) -> Provenance {
     let Inputs { config, demo, .. } = inputs;
     let mut provenance = Provenance::new();
     provenance.input("config", &config.source);
@@ -116,7 +121,7 @@ pub(super) fn provenance(inputs: &Inputs, options: &Options) -> Provenance {
         }),
     );
     provenance.parameters("limits", &options.limits);
-    if let Some(p) = &options.physics {
+    if let Some(p) = &params.physics {
         provenance.parameters("physics", p);
     }
     provenance
@@ -127,6 +132,7 @@ pub(super) fn provenance(inputs: &Inputs, options: &Options) -> Provenance {
 pub(super) fn contact_ik(
     inputs: &Inputs,
     options: &Options,
+    params: &StageParams,
     object: &ObjectWarp,
     base: &HandPath,
     provenance: &mut Provenance,
@@ -141,26 +147,14 @@ pub(super) fn contact_ik(
     } = inputs;
     let shapes = super::barriers::shapes(config, scene, &options.limits)?;
     let object_sdf = crate::geometry::object_sdf(mesh);
-    let tolerance_mm = config.params.penetration_tolerance_mm.unwrap_or_else(|| {
+    let params = params.ik(config, || {
         crate::model::config::auto_penetration_tolerance_mm(
             object_sdf.as_deref().map_or(0.0, |sdf| {
                 metrics::max_hand_object_penetration_mm(robot, demo, sdf)
             }),
         )
     });
-    let params = ik::Params {
-        solver: options.solver,
-        threshold_mm: options.threshold_mm.unwrap_or(config.params.threshold_mm),
-        margin_m: config.params.margin_m,
-        steepness: config.params.steepness,
-        objective: options.objective.unwrap_or(config.params.objective),
-        penetration_tolerance_mm: tolerance_mm,
-        penetration_weight: options
-            .penetration_weight
-            .unwrap_or(config.params.penetration_weight),
-        warm_start: options.warm_start.unwrap_or(config.params.warm_start),
-        ..ik::Params::default()
-    };
+    let tolerance_mm = params.penetration_tolerance_mm;
     provenance.parameters("ik", &params);
     provenance.parameters("smooth", &smooth::Params::default());
     let (raw, stats) = ik::run(
@@ -235,10 +229,11 @@ pub(super) fn guard(
 pub(super) fn physics(
     inputs: &Inputs,
     options: &Options,
+    params: &StageParams,
     out: &Demo,
     timing: &mut Timing,
 ) -> Result<Option<physics::PhysicsReport>> {
-    let Some(params) = &options.physics else {
+    let Some(params) = &params.physics else {
         return Ok(None);
     };
     let Inputs {

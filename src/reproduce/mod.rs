@@ -284,17 +284,11 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
         });
         let run = pipeline::warp(
             &inputs,
-            &Options {
-                demo: None,
-                threshold_mm: Some(variant.threshold_mm),
-                hand: variant.hand,
-                solver: variant.solver,
-                objective: Some(variant.objective),
-                penetration_weight: None,
-                warm_start: None,
-                physics: Some(crate::physics::Params::default()),
-                limits: options.limits,
-            },
+            &Options::new(variant.hand)
+                .threshold_mm(Some(variant.threshold_mm))
+                .solver(variant.solver)
+                .objective(Some(variant.objective))
+                .limits(options.limits),
         )?;
         let mut report = run.report.clone();
         if let Some(clean) = &clean {

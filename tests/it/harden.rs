@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use dexwarp::pipeline::{self, HandMethod, Inputs, Options};
+use dexwarp::pipeline::{self, HandMethod, Inputs, Options, PhysicsOptions};
 use dexwarp::{Error, Limits};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -520,14 +520,7 @@ fn nan_inside_a_stage_is_an_error_not_a_pass() {
     let dir = tempfile::tempdir().unwrap();
     let config = gripper_fixture(dir.path());
     let inputs = Inputs::load(&config, None, &Limits::default()).unwrap();
-    let run = pipeline::warp(
-        &inputs,
-        &Options {
-            hand: HandMethod::Baseline,
-            ..Options::default()
-        },
-    )
-    .unwrap();
+    let run = pipeline::warp(&inputs, &Options::new(HandMethod::Baseline).physics(None)).unwrap();
     let mut hand = run.hand.clone();
     hand.wrists[7].translation.vector.y = f64::NAN;
     let err = pipeline::check_hand_path(&config, &hand).unwrap_err();
@@ -639,12 +632,9 @@ fn fuzz_mutated_demos_and_configs_never_panic_nan_or_escape() {
         };
         let result = std::panic::catch_unwind(|| -> dexwarp::Result<()> {
             let inputs = Inputs::load(&cfg_path, Some(&demo_path), &Limits::default())?;
-            let options = Options {
-                demo: Some(demo_path.clone()),
-                hand,
-                physics: physics.then(dexwarp::physics::Params::default),
-                ..Options::default()
-            };
+            let options = Options::new(hand)
+                .demo(Some(demo_path.clone()))
+                .physics(physics.then(PhysicsOptions::default));
             let run = pipeline::warp(&inputs, &options)?;
             dexwarp::output::write_run(&out, &run)?;
             Ok(())
@@ -894,5 +884,84 @@ fn concurrent_runs_into_one_folder_leave_one_whole_set() {
             .filter(|n| n.contains("dexwarp-tmp"))
             .collect();
         assert!(names.is_empty(), "staging left: {names:?}");
+    }
+}
+
+/// A config's `params.physics` block sets the replay's parameters for every command that runs
+/// it (here `batch`, which has no physics flags), on top of the defaults; a key that is not a
+/// physics parameter, a value of the wrong type or out of range is refused before any work,
+/// naming the config's field.
+#[test]
+fn a_configs_physics_block_reaches_the_replay_and_bad_ones_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = gripper_fixture(dir.path());
+    let with_physics = |name: &str, physics: Value| {
+        let mut c = read_json(&config);
+        c["name"] = Value::from(name);
+        c["params"]["physics"] = physics;
+        let path = dir.path().join(format!("{name}.json"));
+        std::fs::write(&path, serde_json::to_string_pretty(&c).unwrap()).unwrap();
+        path
+    };
+    let set = with_physics(
+        "set",
+        serde_json::json!({"hand_friction": 0.5, "max_mean_rotation_error_deg": 20.0}),
+    );
+    let manifest = dir.path().join("items.jsonl");
+    let item = serde_json::json!({"config": set, "hand": "baseline", "name": "set"});
+    std::fs::write(&manifest, format!("{item}\n")).unwrap();
+    let out = dir.path().join("batch");
+    let o = dexwarp(&["batch", s(&manifest), "--out", s(&out), "--jobs", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_json(&out.join("set/report.json"));
+    let physics = &report["provenance"]["parameters"]["physics"];
+    assert_eq!(physics["hand_friction"], 0.5, "{physics}");
+    assert_eq!(physics["max_mean_rotation_error_deg"], 20.0, "{physics}");
+    let default = dexwarp::physics::Params::default();
+    assert_eq!(
+        physics["object_friction"], default.object_friction,
+        "{physics}"
+    );
+    assert_eq!(physics["max_dt_s"], default.max_dt_s, "{physics}");
+
+    for (name, block, field, expected) in [
+        (
+            "unknown",
+            serde_json::json!({"friction": 1.0}),
+            "params.physics.friction",
+            "hand_friction",
+        ),
+        (
+            "wrong_type",
+            serde_json::json!({"hand_friction": "high"}),
+            "params.physics.hand_friction",
+            "invalid type",
+        ),
+        (
+            "negative",
+            serde_json::json!({"max_dt_s": -0.01}),
+            "params.physics.max_dt_s",
+            "> 0",
+        ),
+    ] {
+        let path = with_physics(name, block);
+        let o = dexwarp(&[
+            "warp",
+            "--config",
+            s(&path),
+            "--out",
+            s(&dir.path().join(name)),
+        ]);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{name}: {err}");
+        assert!(
+            err.contains(&format!("{}", path.display())),
+            "{name}: {err}"
+        );
+        assert!(
+            err.contains(field) && err.contains(expected),
+            "{name}: {err}"
+        );
+        assert!(!dir.path().join(name).exists(), "{name}: output written");
     }
 }

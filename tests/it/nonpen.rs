@@ -20,13 +20,11 @@ fn warp(
     let inputs = Inputs::load(config, None, &Limits::default()).expect("config loads");
     pipeline::warp(
         &inputs,
-        &Options {
-            threshold_mm: Some(3.5),
-            objective: Some(objective),
-            solver,
-            hand,
-            ..Options::default()
-        },
+        &Options::new(hand)
+            .threshold_mm(Some(3.5))
+            .objective(Some(objective))
+            .solver(solver)
+            .physics(None),
     )
     .expect("warp runs")
 }
@@ -52,11 +50,10 @@ fn a_loose_threshold_never_fits_worse_than_the_recording() {
         let run = |objective| {
             pipeline::warp(
                 &inputs,
-                &Options {
-                    threshold_mm: Some(10.0),
-                    objective: Some(objective),
-                    ..Options::default()
-                },
+                &Options::new(HandMethod::Contact)
+                    .threshold_mm(Some(10.0))
+                    .objective(Some(objective))
+                    .physics(None),
             )
             .expect("warp runs")
         };
@@ -206,10 +203,7 @@ fn a_pure_translation_returns_the_rigid_transfer() {
     std::fs::write(&path, serde_json::to_string_pretty(&file).unwrap()).unwrap();
     let _ = WarpConfig::load(&path, &Limits::default()).expect("the translated config loads");
     let inputs = Inputs::load(&path, None, &Limits::default()).unwrap();
-    let opts = |hand| Options {
-        hand,
-        ..Options::default()
-    };
+    let opts = |hand| Options::new(hand).physics(None);
     let ik = pipeline::warp(&inputs, &opts(HandMethod::Contact)).unwrap();
     let rigid = pipeline::warp(&inputs, &opts(HandMethod::Baseline)).unwrap();
     assert_eq!(ik.demo.frames.len(), demo.frames.len());

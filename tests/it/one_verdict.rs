@@ -16,7 +16,7 @@ use dexwarp::Limits;
 use dexwarp::model::Demo;
 use dexwarp::model::report::PhysicsSummary;
 use dexwarp::physics::Params;
-use dexwarp::pipeline::{self, HandMethod, Inputs, Options};
+use dexwarp::pipeline::{self, HandMethod, Inputs, Options, PhysicsOptions};
 use nalgebra::Isometry3;
 use rayon::prelude::*;
 
@@ -67,12 +67,9 @@ fn difference(a: &Demo, b: &Demo) -> Option<String> {
 fn warp(config: &Path, hand: HandMethod, physics: bool) -> (Inputs, pipeline::WarpRun) {
     let limits = Limits::default();
     let inputs = Inputs::load(config, None, &limits).unwrap();
-    let options = Options {
-        hand,
-        physics: physics.then(Params::default),
-        limits,
-        ..Options::default()
-    };
+    let options = Options::new(hand)
+        .physics(physics.then(PhysicsOptions::default))
+        .limits(limits);
     let run = pipeline::warp(&inputs, &options).unwrap();
     (inputs, run)
 }

@@ -131,12 +131,9 @@ pub fn cases(dir: &Path) -> Vec<Case> {
         .par_iter()
         .map(|config| {
             let inputs = Inputs::load(config, None, &limits).unwrap();
-            let options = Options {
-                hand: HandMethod::Baseline,
-                physics: None,
-                limits,
-                ..Options::default()
-            };
+            let options = Options::new(HandMethod::Baseline)
+                .physics(None)
+                .limits(limits);
             let run = pipeline::warp(&inputs, &options).unwrap();
             let name = inputs.config.name.clone();
             let path = dir.join(format!("{name}.demo.json"));

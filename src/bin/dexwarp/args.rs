@@ -6,7 +6,7 @@ use clap::{Args, ValueEnum};
 use dexwarp::Limits;
 use dexwarp::hand::ik::Solver;
 use dexwarp::model::{Objective, WarmStart};
-use dexwarp::pipeline::HandMethod;
+use dexwarp::pipeline::{HandMethod, PhysicsOptions};
 
 /// Size limits on inputs; raise them for genuine large datasets.
 #[derive(Debug, Args)]
@@ -110,18 +110,19 @@ pub struct PhysicsArgs {
     /// less friction and more mass (report `physics.margin`, `physics.robust`).
     #[arg(long)]
     pub margin: bool,
-    /// The hand in the physics replay: kinematic (on the trajectory, the default) or
-    /// actuated (joint motors capped at the URDF's effort limits, wrist on a stiff spring).
-    #[arg(long, value_enum, value_name = "MODEL", default_value = "kinematic")]
-    pub physics_hand: PhysicsHandArg,
+    /// The hand in the physics replay: kinematic (on the trajectory; the default, unless a
+    /// config's params.physics says otherwise) or actuated (joint motors capped at the
+    /// URDF's effort limits, wrist on a stiff spring).
+    #[arg(long, value_enum, value_name = "MODEL")]
+    pub physics_hand: Option<PhysicsHandArg>,
 }
 
 impl PhysicsArgs {
-    pub fn params(&self) -> dexwarp::physics::Params {
-        dexwarp::physics::Params {
+    /// The replay these flags ask for, on top of a config's physics parameters.
+    pub fn options(&self) -> PhysicsOptions {
+        PhysicsOptions {
             margin: self.margin,
-            hand: self.physics_hand.into(),
-            ..dexwarp::physics::Params::default()
+            hand: self.physics_hand.map(Into::into),
         }
     }
 }

@@ -47,7 +47,7 @@ pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
         &demo,
         scene.as_deref(),
         (!barriers.is_empty()).then_some(barriers.as_slice()),
-        &physics.params(),
+        &physics.options().apply(dexwarp::physics::Params::default()),
         &limits,
     )?;
     dexwarp::output::check_not_inputs(

@@ -75,17 +75,15 @@ pub fn run(args: WarpArgs, limits: Limits) -> Result<()> {
         &dexwarp::output::run_file_names(&inputs.config.name),
         &inputs.paths(),
     )?;
-    let options = Options {
-        demo,
-        threshold_mm,
-        hand: hand.into(),
-        solver: solver.into(),
-        objective: objective.map(Into::into),
-        penetration_weight,
-        warm_start: warm_start.map(Into::into),
-        physics: (!no_physics).then(|| physics.params()),
-        limits,
-    };
+    let options = Options::new(hand.into())
+        .demo(demo)
+        .threshold_mm(threshold_mm)
+        .solver(solver.into())
+        .objective(objective.map(Into::into))
+        .penetration_weight(penetration_weight)
+        .warm_start(warm_start.map(Into::into))
+        .physics((!no_physics).then(|| physics.options()))
+        .limits(limits);
     let run = pipeline::warp(&inputs, &options)?;
     write_outputs(&out, &run)
 }
