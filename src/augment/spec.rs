@@ -320,48 +320,7 @@ impl Spec {
             }
         }
         if let Some(w) = &file.waypoints {
-            check_count(path, "waypoints.count", w.count)?;
-            if !(0.0..1.0).contains(&w.t_jitter) {
-                return Err(Error::invalid(
-                    path,
-                    "waypoints.t_jitter",
-                    format!(
-                        "is {}; expected a fraction with 0 <= t_jitter < 1",
-                        w.t_jitter
-                    ),
-                ));
-            }
-            match (&w.position.offset, &w.position.bbox) {
-                (Some(b), None) => check_box(&c, "waypoints.position.offset", b, false)?,
-                (None, Some(b)) => check_box(&c, "waypoints.position.box", b, false)?,
-                _ => {
-                    return Err(Error::invalid(
-                        path,
-                        "waypoints.position",
-                        "expected exactly one of \"offset\" (around the original path) or \"box\" (world box)",
-                    ));
-                }
-            }
-            if let Some(r) = &w.rotation {
-                if r.axes.is_empty() {
-                    return Err(Error::invalid(
-                        path,
-                        "waypoints.rotation.axes",
-                        "is empty; expected at least one axis, like [[0, 0, 1]]",
-                    ));
-                }
-                for (k, a) in r.axes.iter().enumerate() {
-                    let v = c.vec3(|| format!("waypoints.rotation.axes[{k}]"), *a)?;
-                    if v.norm() < 1e-9 {
-                        return Err(Error::invalid(
-                            path,
-                            format!("waypoints.rotation.axes[{k}]"),
-                            "is zero; expected a non-zero axis",
-                        ));
-                    }
-                }
-                check_range(&c, "waypoints.rotation.angle_rad", r.angle_rad, None)?;
-            }
+            check_waypoints(&c, w)?;
         }
         if let Some(r) = &file.retime {
             check_range(&c, "retime.duration_factor", r.duration_factor, Some(0.0))?;
@@ -391,51 +350,7 @@ impl Spec {
             ));
         }
         if let Some(p) = &b.primitives {
-            check_count(path, "barriers.primitives.count", p.count)?;
-            match p.shape {
-                PrimitiveShape::Box => match &p.size {
-                    Some(s) => check_box(&c, "barriers.primitives.size", s, true)?,
-                    None => {
-                        return Err(Error::invalid(
-                            path,
-                            "barriers.primitives.size",
-                            "is missing; a box barrier needs {\"min\": [x, y, z], \"max\": [x, y, z]} edge lengths in metres",
-                        ));
-                    }
-                },
-                PrimitiveShape::Cylinder => {
-                    for (key, r) in [("radius_m", p.radius_m), ("length_m", p.length_m)] {
-                        let field = format!("barriers.primitives.{key}");
-                        match r {
-                            Some(r) => check_range(&c, &field, r, Some(0.0))?,
-                            None => {
-                                return Err(Error::invalid(
-                                    path,
-                                    field,
-                                    "is missing; a cylinder barrier needs radius_m and length_m ranges [lo, hi] in metres",
-                                ));
-                            }
-                        }
-                    }
-                }
-            }
-            check_range(&c, "barriers.primitives.between", p.between, None)?;
-            if p.between[0] < 0.0 || p.between[1] > 1.0 {
-                return Err(Error::invalid(
-                    path,
-                    "barriers.primitives.between",
-                    format!(
-                        "is {:?}; expected fractions of the way from start to end, within [0, 1]",
-                        p.between
-                    ),
-                ));
-            }
-            if let Some(o) = &p.offset {
-                check_box(&c, "barriers.primitives.offset", o, false)?;
-            }
-            if let Some(y) = p.yaw_rad {
-                check_range(&c, "barriers.primitives.yaw_rad", y, None)?;
-            }
+            check_primitives(&c, p)?;
         }
         let k = &file.keep;
         if !(0.0..=1.0).contains(&k.min_converged) {
@@ -537,6 +452,105 @@ impl Spec {
         }
         Ok(())
     }
+}
+
+/// Checks the waypoints' count, jitter, position distribution and rotations.
+fn check_waypoints(c: &FieldCheck, w: &WaypointsJson) -> Result<()> {
+    let path = c.path;
+    check_count(path, "waypoints.count", w.count)?;
+    if !(0.0..1.0).contains(&w.t_jitter) {
+        return Err(Error::invalid(
+            path,
+            "waypoints.t_jitter",
+            format!(
+                "is {}; expected a fraction with 0 <= t_jitter < 1",
+                w.t_jitter
+            ),
+        ));
+    }
+    match (&w.position.offset, &w.position.bbox) {
+        (Some(b), None) => check_box(c, "waypoints.position.offset", b, false)?,
+        (None, Some(b)) => check_box(c, "waypoints.position.box", b, false)?,
+        _ => {
+            return Err(Error::invalid(
+                path,
+                "waypoints.position",
+                "expected exactly one of \"offset\" (around the original path) or \"box\" (world box)",
+            ));
+        }
+    }
+    if let Some(r) = &w.rotation {
+        if r.axes.is_empty() {
+            return Err(Error::invalid(
+                path,
+                "waypoints.rotation.axes",
+                "is empty; expected at least one axis, like [[0, 0, 1]]",
+            ));
+        }
+        for (k, a) in r.axes.iter().enumerate() {
+            let v = c.vec3(|| format!("waypoints.rotation.axes[{k}]"), *a)?;
+            if v.norm() < 1e-9 {
+                return Err(Error::invalid(
+                    path,
+                    format!("waypoints.rotation.axes[{k}]"),
+                    "is zero; expected a non-zero axis",
+                ));
+            }
+        }
+        check_range(c, "waypoints.rotation.angle_rad", r.angle_rad, None)?;
+    }
+    Ok(())
+}
+
+/// Checks the primitive barriers: count, shape and size ranges, placement.
+fn check_primitives(c: &FieldCheck, p: &PrimitivesJson) -> Result<()> {
+    let path = c.path;
+    check_count(path, "barriers.primitives.count", p.count)?;
+    match p.shape {
+        PrimitiveShape::Box => match &p.size {
+            Some(s) => check_box(c, "barriers.primitives.size", s, true)?,
+            None => {
+                return Err(Error::invalid(
+                    path,
+                    "barriers.primitives.size",
+                    "is missing; a box barrier needs {\"min\": [x, y, z], \"max\": [x, y, z]} edge lengths in metres",
+                ));
+            }
+        },
+        PrimitiveShape::Cylinder => {
+            for (key, r) in [("radius_m", p.radius_m), ("length_m", p.length_m)] {
+                let field = format!("barriers.primitives.{key}");
+                match r {
+                    Some(r) => check_range(c, &field, r, Some(0.0))?,
+                    None => {
+                        return Err(Error::invalid(
+                            path,
+                            field,
+                            "is missing; a cylinder barrier needs radius_m and length_m ranges [lo, hi] in metres",
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    check_range(c, "barriers.primitives.between", p.between, None)?;
+    if p.between[0] < 0.0 || p.between[1] > 1.0 {
+        return Err(Error::invalid(
+            path,
+            "barriers.primitives.between",
+            format!(
+                "is {:?}; expected fractions of the way from start to end, within [0, 1]",
+                p.between
+            ),
+        ));
+    }
+    if let Some(o) = &p.offset {
+        check_box(c, "barriers.primitives.offset", o, false)?;
+    }
+    if let Some(y) = p.yaw_rad {
+        check_range(c, "barriers.primitives.yaw_rad", y, None)?;
+    }
+    Ok(())
 }
 
 fn check_place(c: &FieldCheck, key: &str, p: &PlaceJson) -> Result<()> {

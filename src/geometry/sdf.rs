@@ -491,116 +491,13 @@ fn build_grid(
     let mut inside = vec![false; n];
     let mut part_dist = vec![f32::INFINITY; n];
     let mut parity_errors = 0;
-    let coord = |idx: [usize; 3]| -> Vector3<f64> {
-        origin + Vector3::new(idx[0] as f64, idx[1] as f64, idx[2] as f64) * h
-    };
-    let range = |lo: f64, hi: f64, a: usize| -> (usize, usize) {
-        let l = ((lo - origin[a]) / h).ceil().max(0.0) as usize;
-        let u = (((hi - origin[a]) / h).floor().max(-1.0) + 1.0) as usize;
-        (l.min(dims[a]), u.min(dims[a]))
-    };
+    let lattice = Lattice { origin, h, dims };
     for (part, &is_closed) in parts.iter().zip(closed) {
-        // 1. Exact distances to this part's triangles inside the band, in parallel over
-        //    slabs of z-layers (a slab is a contiguous run of samples).
-        let tris: Vec<[Vector3<f64>; 3]> = part
-            .triangles
-            .iter()
-            .map(|t| t.map(|v| part.vertices[v as usize].coords))
-            .collect();
-        let layer = nx * ny;
-        part_dist
-            .par_chunks_mut(layer * SLAB_LAYERS)
-            .enumerate()
-            .for_each(|(slab, out)| {
-                let k_first = slab * SLAB_LAYERS;
-                let k_end = k_first + out.len() / layer;
-                for [a, b, c] in &tris {
-                    let lo = a.inf(b).inf(c) - Vector3::repeat(band);
-                    let hi = a.sup(b).sup(c) + Vector3::repeat(band);
-                    let (k0, k1) = range(lo.z, hi.z, 2);
-                    let (k0, k1) = (k0.max(k_first), k1.min(k_end));
-                    if k0 >= k1 {
-                        continue;
-                    }
-                    let normal = (b - a).cross(&(c - a));
-                    let area2 = normal.norm();
-                    let unit = if area2 > 0.0 {
-                        normal / area2
-                    } else {
-                        Vector3::zeros()
-                    };
-                    let (i0, i1) = range(lo.x, hi.x, 0);
-                    let (j0, j1) = range(lo.y, hi.y, 1);
-                    for k in k0..k1 {
-                        for j in j0..j1 {
-                            for i in i0..i1 {
-                                let p = coord([i, j, k]);
-                                if area2 > 0.0 && unit.dot(&(p - a)).abs() > band {
-                                    continue;
-                                }
-                                let d = point_triangle_distance(&p, a, b, c) as f32;
-                                let s = i + nx * (j + ny * (k - k_first));
-                                if d < out[s] {
-                                    out[s] = d;
-                                }
-                            }
-                        }
-                    }
-                }
-            });
+        // 1. Exact distances to this part's triangles inside the band.
+        part_distances(&lattice, part, band, &mut part_dist);
         // 2. Inside this part: parity of the faces crossed below each sample along z.
         if is_closed {
-            let mut crossings: Vec<(usize, f64)> = Vec::new();
-            for t in &part.triangles {
-                let [a, b, c] = t.map(|v| part.vertices[v as usize].coords);
-                let (i0, i1) = range(a.x.min(b.x).min(c.x), a.x.max(b.x).max(c.x), 0);
-                let (j0, j1) = range(a.y.min(b.y).min(c.y), a.y.max(b.y).max(c.y), 1);
-                let det = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
-                if det == 0.0 {
-                    continue;
-                }
-                for j in j0..j1 {
-                    for i in i0..i1 {
-                        let q = coord([i, j, 0]);
-                        let (px, py) = (q.x - a.x, q.y - a.y);
-                        let u = (px * (c.y - a.y) - (c.x - a.x) * py) / det;
-                        let v = ((b.x - a.x) * py - px * (b.y - a.y)) / det;
-                        if u < 0.0 || v < 0.0 || u + v > 1.0 {
-                            continue;
-                        }
-                        let z = a.z + u * (b.z - a.z) + v * (c.z - a.z);
-                        crossings.push((i + nx * j, z));
-                    }
-                }
-            }
-            crossings.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
-            let mut start = 0;
-            while start < crossings.len() {
-                let col = crossings[start].0;
-                let mut end = start;
-                while end < crossings.len() && crossings[end].0 == col {
-                    end += 1;
-                }
-                let zs = &crossings[start..end];
-                if zs.len() % 2 == 1 {
-                    parity_errors += 1;
-                } else {
-                    let mut m = 0;
-                    for k in 0..nz {
-                        let z = origin.z + k as f64 * h;
-                        while m < zs.len() && zs[m].1 < z {
-                            m += 1;
-                        }
-                        if m % 2 == 1 {
-                            let s = col + nx * ny * k;
-                            inside[s] = true;
-                            let d = part_dist[s].min(band as f32);
-                            depth[s] = depth[s].max(d);
-                        }
-                    }
-                }
-                start = end;
-            }
+            parity_errors += part_inside(&lattice, part, band, &part_dist, &mut inside, &mut depth);
         }
         unsigned
             .par_iter_mut()
@@ -632,6 +529,150 @@ fn build_grid(
         },
         parity_errors,
     )
+}
+
+/// The sample lattice of a grid: sample `(i, j, k)` at `origin + (i, j, k)·h`, `dims`
+/// samples per axis.
+#[derive(Clone, Copy, Debug)]
+struct Lattice {
+    origin: Vector3<f64>,
+    h: f64,
+    dims: [usize; 3],
+}
+
+impl Lattice {
+    /// Position of sample `idx`.
+    fn coord(&self, idx: [usize; 3]) -> Vector3<f64> {
+        self.origin + Vector3::new(idx[0] as f64, idx[1] as f64, idx[2] as f64) * self.h
+    }
+
+    /// The samples `l..u` along axis `a` whose coordinates lie in `[lo, hi]`.
+    fn range(&self, lo: f64, hi: f64, a: usize) -> (usize, usize) {
+        let l = ((lo - self.origin[a]) / self.h).ceil().max(0.0) as usize;
+        let u = (((hi - self.origin[a]) / self.h).floor().max(-1.0) + 1.0) as usize;
+        (l.min(self.dims[a]), u.min(self.dims[a]))
+    }
+}
+
+/// Exact distances to `part`'s triangles inside the `band`, into `part_dist` (which holds
+/// `∞` where no triangle is near), in parallel over slabs of z-layers (a slab is a
+/// contiguous run of samples).
+fn part_distances(lattice: &Lattice, part: &Mesh, band: f64, part_dist: &mut [f32]) {
+    let [nx, ny, _] = lattice.dims;
+    let tris: Vec<[Vector3<f64>; 3]> = part
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| part.vertices[v as usize].coords))
+        .collect();
+    let layer = nx * ny;
+    part_dist
+        .par_chunks_mut(layer * SLAB_LAYERS)
+        .enumerate()
+        .for_each(|(slab, out)| {
+            let k_first = slab * SLAB_LAYERS;
+            let k_end = k_first + out.len() / layer;
+            for [a, b, c] in &tris {
+                let lo = a.inf(b).inf(c) - Vector3::repeat(band);
+                let hi = a.sup(b).sup(c) + Vector3::repeat(band);
+                let (k0, k1) = lattice.range(lo.z, hi.z, 2);
+                let (k0, k1) = (k0.max(k_first), k1.min(k_end));
+                if k0 >= k1 {
+                    continue;
+                }
+                let normal = (b - a).cross(&(c - a));
+                let area2 = normal.norm();
+                let unit = if area2 > 0.0 {
+                    normal / area2
+                } else {
+                    Vector3::zeros()
+                };
+                let (i0, i1) = lattice.range(lo.x, hi.x, 0);
+                let (j0, j1) = lattice.range(lo.y, hi.y, 1);
+                for k in k0..k1 {
+                    for j in j0..j1 {
+                        for i in i0..i1 {
+                            let p = lattice.coord([i, j, k]);
+                            if area2 > 0.0 && unit.dot(&(p - a)).abs() > band {
+                                continue;
+                            }
+                            let d = point_triangle_distance(&p, a, b, c) as f32;
+                            let s = i + nx * (j + ny * (k - k_first));
+                            if d < out[s] {
+                                out[s] = d;
+                            }
+                        }
+                    }
+                }
+            }
+        });
+}
+
+/// Marks the samples inside the closed `part` (the parity of the faces crossed below each
+/// sample along z) in `inside`, with their depth from `part_dist` in `depth`. Returns the
+/// number of columns with an odd parity count (left outside).
+fn part_inside(
+    lattice: &Lattice,
+    part: &Mesh,
+    band: f64,
+    part_dist: &[f32],
+    inside: &mut [bool],
+    depth: &mut [f32],
+) -> usize {
+    let [nx, ny, nz] = lattice.dims;
+    let (origin, h) = (lattice.origin, lattice.h);
+    let mut parity_errors = 0;
+    let mut crossings: Vec<(usize, f64)> = Vec::new();
+    for t in &part.triangles {
+        let [a, b, c] = t.map(|v| part.vertices[v as usize].coords);
+        let (i0, i1) = lattice.range(a.x.min(b.x).min(c.x), a.x.max(b.x).max(c.x), 0);
+        let (j0, j1) = lattice.range(a.y.min(b.y).min(c.y), a.y.max(b.y).max(c.y), 1);
+        let det = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+        if det == 0.0 {
+            continue;
+        }
+        for j in j0..j1 {
+            for i in i0..i1 {
+                let q = lattice.coord([i, j, 0]);
+                let (px, py) = (q.x - a.x, q.y - a.y);
+                let u = (px * (c.y - a.y) - (c.x - a.x) * py) / det;
+                let v = ((b.x - a.x) * py - px * (b.y - a.y)) / det;
+                if u < 0.0 || v < 0.0 || u + v > 1.0 {
+                    continue;
+                }
+                let z = a.z + u * (b.z - a.z) + v * (c.z - a.z);
+                crossings.push((i + nx * j, z));
+            }
+        }
+    }
+    crossings.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    let mut start = 0;
+    while start < crossings.len() {
+        let col = crossings[start].0;
+        let mut end = start;
+        while end < crossings.len() && crossings[end].0 == col {
+            end += 1;
+        }
+        let zs = &crossings[start..end];
+        if zs.len() % 2 == 1 {
+            parity_errors += 1;
+        } else {
+            let mut m = 0;
+            for k in 0..nz {
+                let z = origin.z + k as f64 * h;
+                while m < zs.len() && zs[m].1 < z {
+                    m += 1;
+                }
+                if m % 2 == 1 {
+                    let s = col + nx * ny * k;
+                    inside[s] = true;
+                    let d = part_dist[s].min(band as f32);
+                    depth[s] = depth[s].max(d);
+                }
+            }
+        }
+        start = end;
+    }
+    parity_errors
 }
 
 /// Distance from `p` to the triangle `abc` (closest-point regions of the triangle: vertex,

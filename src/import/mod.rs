@@ -486,9 +486,26 @@ pub fn import_lerobot(
             format!("has no frame of episode {episode}"),
         ));
     }
-    // Joint order: the feature's names when they are the robot's joints.
+    let order = joint_order(&robot, &ds.info, &mapping.state_key);
+    let poses = episode_poses(
+        &robot, &data, episode, mapping, &rows, state, object, &order,
+    )?;
+    let mut target = target.clone();
+    if target.name.is_none()
+        && let Ok(Column::Strings(n)) = ds.episodes.column(root, "quality/name")
+        && let Some(Some(name)) = n.get(episode)
+        && !name.is_empty()
+    {
+        target.name = Some(name.clone());
+    }
+    finish(&target, &robot, fps, poses, None, limits)
+}
+
+/// The robot joint of each joint value of the state vector: the feature's names when they
+/// are the robot's joints, else the robot's order.
+fn joint_order(robot: &Robot, info: &serde_json::Value, state_key: &str) -> Vec<usize> {
     let dof = robot.dof();
-    let names: Vec<String> = ds.info["features"][&mapping.state_key]["names"]
+    let names: Vec<String> = info["features"][state_key]["names"]
         .as_array()
         .map(|a| {
             a.iter()
@@ -496,15 +513,30 @@ pub fn import_lerobot(
                 .collect()
         })
         .unwrap_or_default();
-    let order: Vec<usize> =
-        if names.len() == 7 + dof && names[7..].iter().all(|n| robot.actuated_index(n).is_some()) {
-            names[7..]
-                .iter()
-                .map(|n| robot.actuated_index(n).unwrap_or(0))
-                .collect()
-        } else {
-            (0..dof).collect()
-        };
+    if names.len() == 7 + dof && names[7..].iter().all(|n| robot.actuated_index(n).is_some()) {
+        names[7..]
+            .iter()
+            .map(|n| robot.actuated_index(n).unwrap_or(0))
+            .collect()
+    } else {
+        (0..dof).collect()
+    }
+}
+
+/// The poses of the dataset `rows` of `episode` (in frame order): object, wrist, joints in
+/// robot order. Fails on a row of the wrong length, a non-finite value or a quaternion that
+/// is not unit.
+fn episode_poses(
+    robot: &Robot,
+    data: &Path,
+    episode: usize,
+    mapping: &LerobotMapping,
+    rows: &[usize],
+    state: &[Vec<f64>],
+    object: &[Vec<f64>],
+    order: &[usize],
+) -> Result<Vec<Pose>> {
+    let dof = robot.dof();
     let (sk, ok) = (&mapping.state_key, &mapping.object_key);
     let mut poses = Vec::with_capacity(rows.len());
     for (k, &i) in rows.iter().enumerate() {
@@ -513,7 +545,7 @@ pub fn import_lerobot(
         let field = |key: &str| format!("{key}, episode {episode} frame {k}");
         if s.len() != 7 + dof {
             return Err(Error::invalid(
-                &data,
+                data,
                 field(sk),
                 format!(
                     "has {} values; expected 7 (wrist pose) + {dof} (joints of robot {:?})",
@@ -524,14 +556,14 @@ pub fn import_lerobot(
         }
         if o.len() != 7 {
             return Err(Error::invalid(
-                &data,
+                data,
                 field(ok),
                 format!("has {} values; expected 7 (object pose)", o.len()),
             ));
         }
         if let Some(v) = s.iter().chain(o.iter()).find(|v| !v.is_finite()) {
             return Err(Error::invalid(
-                &data,
+                data,
                 field(sk),
                 format!("holds {v}; expected finite numbers"),
             ));
@@ -540,7 +572,7 @@ pub fn import_lerobot(
             let q =
                 crate::math::rotation::quat_from_wxyz([v[3], v[4], v[5], v[6]]).map_err(|e| {
                     Error::invalid(
-                        &data,
+                        data,
                         field(key),
                         format!("{e}; values 3..7 must be a unit quaternion [w, x, y, z]"),
                     )
@@ -556,13 +588,5 @@ pub fn import_lerobot(
         }
         poses.push((pose(o, ok)?, pose(s, sk)?, q));
     }
-    let mut target = target.clone();
-    if target.name.is_none()
-        && let Ok(Column::Strings(n)) = ds.episodes.column(root, "quality/name")
-        && let Some(Some(name)) = n.get(episode)
-        && !name.is_empty()
-    {
-        target.name = Some(name.clone());
-    }
-    finish(&target, &robot, fps, poses, None, limits)
+    Ok(poses)
 }

@@ -9,6 +9,7 @@
 //! machine.
 
 use super::{Item, seconds};
+use crate::model::report::Report;
 
 /// How much a figure may move before it is reported.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -90,12 +91,6 @@ pub fn compare(previous: &str, before: &[Item], now: &[Item], tol: &Tolerances) 
     let mut slower = Vec::new();
     let mut matched = 0;
     let find = |items: &'_ [Item], id: &str| items.binary_search_by(|i| i.id.as_str().cmp(id)).ok();
-    let change = |id: &str, what: &str, text: String, worse: bool| Change {
-        id: id.into(),
-        what: what.into(),
-        text,
-        worse,
-    };
     for n in now {
         let Some(b) = find(before, &n.id).map(|k| &before[k]) else {
             let worse = rank(n.status()) > 0;
@@ -120,80 +115,7 @@ pub fn compare(previous: &str, before: &[Item], now: &[Item], tol: &Tolerances) 
         let (Some(rb), Some(rn)) = (b.finished(), n.finished()) else {
             continue;
         };
-        let grew = |what: &str, x: Option<f64>, y: Option<f64>, tol: f64, unit: &str| {
-            let (Some(x), Some(y)) = (x, y) else {
-                return None;
-            };
-            let d = y - x;
-            (d.abs() > tol || (x.is_finite() != y.is_finite())).then(|| {
-                change(
-                    &n.id,
-                    what,
-                    format!("{x:.2} -> {y:.2}{unit} ({d:+.2}, tolerance {tol}{unit})"),
-                    d > tol || d.is_nan(),
-                )
-            })
-        };
-        let moved = |what: &str, x: f64, y: f64, tol: f64| {
-            let d = y - x;
-            (d.abs() > tol || d.is_nan()).then(|| {
-                change(
-                    &n.id,
-                    what,
-                    format!("{x:.3} -> {y:.3} ({d:+.3}, tolerance {tol})"),
-                    false,
-                )
-            })
-        };
-        let pen = |r: &crate::model::report::Report| {
-            r.constraints.hand_object_penetration_mm.map(|p| p.warped)
-        };
-        changes.extend(
-            [
-                grew(
-                    "D_C",
-                    Some(rb.metrics.d_c_mm.warped),
-                    Some(rn.metrics.d_c_mm.warped),
-                    tol.d_c_mm,
-                    " mm",
-                ),
-                grew(
-                    "D_WO",
-                    Some(rb.metrics.d_wo_mm.warped),
-                    Some(rn.metrics.d_wo_mm.warped),
-                    tol.d_wo_mm,
-                    " mm",
-                ),
-                grew(
-                    "hand-object penetration",
-                    pen(rb),
-                    pen(rn),
-                    tol.penetration_mm,
-                    " mm",
-                ),
-                grew(
-                    "waypoint error",
-                    Some(rb.constraints.max_waypoint_error_mm),
-                    Some(rn.constraints.max_waypoint_error_mm),
-                    tol.waypoint_mm,
-                    " mm",
-                ),
-                moved(
-                    "PLR object",
-                    rb.metrics.plr_object,
-                    rn.metrics.plr_object,
-                    tol.plr,
-                ),
-                moved(
-                    "timewarp discrepancy",
-                    rb.metrics.timewarp_discrepancy,
-                    rn.metrics.timewarp_discrepancy,
-                    tol.timewarp,
-                ),
-            ]
-            .into_iter()
-            .flatten(),
-        );
+        changes.extend(metric_changes(&n.id, rb, rn, tol));
         let (tb, tn) = (seconds(rb), seconds(rn));
         if tn > tb * tol.time_ratio && tn - tb > 1.0 {
             slower.push((n.id.clone(), tb, tn));
@@ -216,6 +138,92 @@ pub fn compare(previous: &str, before: &[Item], now: &[Item], tol: &Tolerances) 
         changes,
         slower,
         total_seconds: (total(before), total(now)),
+    }
+}
+
+/// The metric changes of one item beyond `tol`, `rb` before and `rn` now: D_C, D_WO,
+/// penetration and waypoint error (worse when they grew), PLR and timewarp discrepancy.
+fn metric_changes(id: &str, rb: &Report, rn: &Report, tol: &Tolerances) -> Vec<Change> {
+    let grew = |what: &str, x: Option<f64>, y: Option<f64>, tol: f64, unit: &str| {
+        let (Some(x), Some(y)) = (x, y) else {
+            return None;
+        };
+        let d = y - x;
+        (d.abs() > tol || (x.is_finite() != y.is_finite())).then(|| {
+            change(
+                id,
+                what,
+                format!("{x:.2} -> {y:.2}{unit} ({d:+.2}, tolerance {tol}{unit})"),
+                d > tol || d.is_nan(),
+            )
+        })
+    };
+    let moved = |what: &str, x: f64, y: f64, tol: f64| {
+        let d = y - x;
+        (d.abs() > tol || d.is_nan()).then(|| {
+            change(
+                id,
+                what,
+                format!("{x:.3} -> {y:.3} ({d:+.3}, tolerance {tol})"),
+                false,
+            )
+        })
+    };
+    let pen = |r: &Report| r.constraints.hand_object_penetration_mm.map(|p| p.warped);
+    [
+        grew(
+            "D_C",
+            Some(rb.metrics.d_c_mm.warped),
+            Some(rn.metrics.d_c_mm.warped),
+            tol.d_c_mm,
+            " mm",
+        ),
+        grew(
+            "D_WO",
+            Some(rb.metrics.d_wo_mm.warped),
+            Some(rn.metrics.d_wo_mm.warped),
+            tol.d_wo_mm,
+            " mm",
+        ),
+        grew(
+            "hand-object penetration",
+            pen(rb),
+            pen(rn),
+            tol.penetration_mm,
+            " mm",
+        ),
+        grew(
+            "waypoint error",
+            Some(rb.constraints.max_waypoint_error_mm),
+            Some(rn.constraints.max_waypoint_error_mm),
+            tol.waypoint_mm,
+            " mm",
+        ),
+        moved(
+            "PLR object",
+            rb.metrics.plr_object,
+            rn.metrics.plr_object,
+            tol.plr,
+        ),
+        moved(
+            "timewarp discrepancy",
+            rb.metrics.timewarp_discrepancy,
+            rn.metrics.timewarp_discrepancy,
+            tol.timewarp,
+        ),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
+/// A [`Change`] of item `id`.
+fn change(id: &str, what: &str, text: String, worse: bool) -> Change {
+    Change {
+        id: id.into(),
+        what: what.into(),
+        text,
+        worse,
     }
 }
 

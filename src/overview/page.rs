@@ -129,37 +129,55 @@ pub fn write_page(
         crate::model::provenance::GIT_REVISION
     );
     if let Some(c) = comparison {
-        body.push_str(&format!(
-            "<section id=\"compare\"><h2>Compared with {}</h2>\n<p class=\"{}\">{}</p>\n",
-            escape(&c.previous),
-            if c.worse() > 0 { "bad" } else { "good" },
-            escape(&c.headline())
-        ));
-        if !c.changes.is_empty() {
-            body.push_str(
-                "<table><tr><th>item</th><th>what</th><th>change</th><th>worse</th></tr>\n",
-            );
-            for ch in &c.changes {
-                body.push_str(&format!(
-                    "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
-                    if ch.worse { "bad" } else { "" },
-                    escape(&ch.id),
-                    escape(&ch.what),
-                    escape(&ch.text),
-                    if ch.worse { "yes" } else { "no" }
-                ));
-            }
-            body.push_str("</table>\n");
-        }
-        for (id, b, n) in &c.slower {
+        comparison_section(&mut body, c);
+    }
+    verdicts_section(&mut body, items);
+    body.push_str(&player::section(&entries));
+    distributions_section(&mut body, items);
+    items_table(&mut body, items, &playable, &no_player);
+    let html = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"generator\" content=\"{GENERATOR}\">\n<title>dexwarp report</title>\n<style>\nbody {{ font-family: sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }}\ntable {{ border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.9em; }}\nth, td {{ border: 1px solid #ccc; padding: 3px 8px; text-align: right; }}\nth:first-child, td:first-child {{ text-align: left; }}\ntr.bad td {{ background: #fdecea; }}\np.bad {{ color: #b00; font-weight: bold; }}\np.good {{ color: #080; }}\n.hists {{ display: flex; flex-wrap: wrap; gap: 8px; }}\n.prov, .note {{ color: #555; font-size: 0.9em; }}\n{}</style>\n</head>\n<body>\n{body}</body>\n</html>\n",
+        player::STYLE
+    );
+    write_atomic(page, html.as_bytes()).map_err(|e| match e {
+        Error::Io { source, .. } => Error::write(page, source),
+        other => other,
+    })
+}
+
+/// The comparison with the previous report: headline, changes, slower items.
+fn comparison_section(body: &mut String, c: &Comparison) {
+    body.push_str(&format!(
+        "<section id=\"compare\"><h2>Compared with {}</h2>\n<p class=\"{}\">{}</p>\n",
+        escape(&c.previous),
+        if c.worse() > 0 { "bad" } else { "good" },
+        escape(&c.headline())
+    ));
+    if !c.changes.is_empty() {
+        body.push_str("<table><tr><th>item</th><th>what</th><th>change</th><th>worse</th></tr>\n");
+        for ch in &c.changes {
             body.push_str(&format!(
-                "<p class=\"note\">slower: {} {b:.1} s -> {n:.1} s (not counted as worse)</p>\n",
-                escape(id)
+                "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                if ch.worse { "bad" } else { "" },
+                escape(&ch.id),
+                escape(&ch.what),
+                escape(&ch.text),
+                if ch.worse { "yes" } else { "no" }
             ));
         }
-        body.push_str("</section>\n");
+        body.push_str("</table>\n");
     }
+    for (id, b, n) in &c.slower {
+        body.push_str(&format!(
+            "<p class=\"note\">slower: {} {b:.1} s -> {n:.1} s (not counted as worse)</p>\n",
+            escape(id)
+        ));
+    }
+    body.push_str("</section>\n");
+}
 
+/// The count of items per verdict and of reasons per kind.
+fn verdicts_section(body: &mut String, items: &[Item]) {
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     let mut kinds: BTreeMap<String, usize> = BTreeMap::new();
     for it in items {
@@ -188,8 +206,10 @@ pub fn write_page(
         }
         body.push_str("</table>\n");
     }
+}
 
-    body.push_str(&player::section(&entries));
+/// Histograms of the finished items' metrics.
+fn distributions_section(body: &mut String, items: &[Item]) {
     let done: Vec<&crate::model::report::Report> =
         items.iter().filter_map(Item::finished).collect();
     let col = |f: fn(&crate::model::report::Report) -> Option<f64>| -> Vec<f64> {
@@ -225,7 +245,15 @@ pub fn write_page(
         body.push('\n');
     }
     body.push_str("</div>\n");
+}
 
+/// The item table (the first [`TABLE_ROWS`]), each item linked to its player when it has one.
+fn items_table(
+    body: &mut String,
+    items: &[Item],
+    playable: &std::collections::HashSet<&str>,
+    no_player: &BTreeMap<String, String>,
+) {
     body.push_str("<h2>Items</h2>\n<table><tr><th>item</th><th>hand</th><th>threshold [mm]</th><th>verdict</th><th>first reason</th><th>D_C [mm]</th><th>D_WO [mm]</th><th>PLR object</th><th>timewarp disc.</th><th>penetration [mm]</th><th>margin</th><th>time [s]</th></tr>\n");
     for it in items.iter().take(TABLE_ROWS) {
         let reasons = it.reasons();
@@ -268,12 +296,4 @@ pub fn write_page(
             items.len()
         ));
     }
-    let html = format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"generator\" content=\"{GENERATOR}\">\n<title>dexwarp report</title>\n<style>\nbody {{ font-family: sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }}\ntable {{ border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.9em; }}\nth, td {{ border: 1px solid #ccc; padding: 3px 8px; text-align: right; }}\nth:first-child, td:first-child {{ text-align: left; }}\ntr.bad td {{ background: #fdecea; }}\np.bad {{ color: #b00; font-weight: bold; }}\np.good {{ color: #080; }}\n.hists {{ display: flex; flex-wrap: wrap; gap: 8px; }}\n.prov, .note {{ color: #555; font-size: 0.9em; }}\n{}</style>\n</head>\n<body>\n{body}</body>\n</html>\n",
-        player::STYLE
-    );
-    write_atomic(page, html.as_bytes()).map_err(|e| match e {
-        Error::Io { source, .. } => Error::write(page, source),
-        other => other,
-    })
 }

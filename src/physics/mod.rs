@@ -164,6 +164,7 @@ pub mod report;
 mod verdict;
 pub mod world;
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::Vector3;
@@ -179,7 +180,7 @@ pub use report::{
 
 use crate::geometry::Mesh;
 use crate::geometry::shape::CollisionShape;
-use crate::model::{Demo, Role, Scene};
+use crate::model::{ContactSegment, Demo, Role, Scene};
 use crate::robot::Robot;
 use crate::{Error, Limits, Result};
 use checks::{PenetrationAcc, Placed};
@@ -209,6 +210,72 @@ pub fn validate(
     check_demo(robot, demo)?;
 
     // 1. Object shape.
+    let (object, cached, sdf) = object_shapes(demo, object_mesh, params)?;
+    let decomposition_s = start.elapsed().as_secs_f64();
+
+    // 2. Scene: supports and the checked barriers, in scene order.
+    let (supports, solid) = scene_items(scene, barriers, limits)?;
+
+    // 3. Replay, and 4a. the penetration checks at the demonstration's poses, which do not
+    // depend on the replay: the two run side by side.
+    let barrier_names: Vec<String> = solid.iter().map(|(n, _)| n.clone()).collect();
+    let support_names: Vec<String> = supports.iter().map(|(n, _)| n.clone()).collect();
+    let (replay, (pen, penetration_s)) = rayon::join(
+        || run_replay(robot, demo, &object, &supports, &solid, params),
+        || {
+            let t_pen = Instant::now();
+            let pen = penetrations(
+                robot,
+                demo,
+                &object,
+                &sdf,
+                &solid,
+                &supports,
+                &barrier_names,
+                &support_names,
+                params,
+            );
+            (pen, t_pen.elapsed().as_secs_f64())
+        },
+    );
+    let (trace, replay_s) = replay?;
+
+    // 4b. Checks on the replay.
+    let checked = check_replay(robot, demo, &object, &supports, &trace, params);
+
+    // 5. Verdict.
+    let timing = Timing {
+        decomposition: decomposition_s,
+        replay: replay_s,
+        penetration: penetration_s,
+        stability: checked.stability_s,
+        margin: 0.0,
+        total: 0.0,
+    };
+    let mut report = judge(demo, &object, cached, &trace, pen, checked, timing, params);
+    if params.margin {
+        add_margin(
+            &mut report,
+            robot,
+            demo,
+            scene,
+            barriers,
+            object_mesh,
+            params,
+            limits,
+        )?;
+    }
+    report.timing_s.total = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// The object's convex decomposition (and whether it came from the cache) and its signed
+/// distance field: the same one the IK keeps the fingers out of.
+fn object_shapes(
+    demo: &Demo,
+    object_mesh: &Mesh,
+    params: &Params,
+) -> Result<(Arc<ObjectShape>, bool, Arc<crate::geometry::ObjectSdf>)> {
     let (object, cached) = object_shape(object_mesh, &params.decomposition).ok_or_else(|| {
         Error::invalid(
             &demo.object.mesh,
@@ -216,7 +283,6 @@ pub fn validate(
             "the mesh is degenerate (fewer than four non-coplanar vertices); expected a solid object",
         )
     })?;
-    // The object's signed distance field: the same one the IK keeps the fingers out of.
     let sdf = crate::geometry::object_sdf(object_mesh).ok_or_else(|| {
         Error::invalid(
             &demo.object.mesh,
@@ -224,9 +290,19 @@ pub fn validate(
             "is empty; expected a solid object",
         )
     })?;
-    let decomposition_s = start.elapsed().as_secs_f64();
+    Ok((object, cached, sdf))
+}
 
-    // 2. Scene: supports and the checked barriers, in scene order.
+/// Scene items by name with their collision shapes.
+type NamedShapes = Vec<(String, CollisionShape)>;
+
+/// The scene's supports and the checked `barriers` with their collision shapes, in scene
+/// order. Fails on a barrier the scene does not have.
+fn scene_items(
+    scene: &Scene,
+    barriers: &[String],
+    limits: &Limits,
+) -> Result<(NamedShapes, NamedShapes)> {
     let mut supports: Vec<(String, CollisionShape)> = Vec::new();
     let mut solid: Vec<(String, CollisionShape)> = Vec::new();
     for name in barriers {
@@ -253,6 +329,19 @@ pub fn validate(
             solid.push((item.name.clone(), scene.collision_shape(item, limits)?));
         }
     }
+    Ok((supports, solid))
+}
+
+/// Builds the world (hand and object at frame 0, the supports and barriers fixed) and
+/// replays the trajectory in it: the trace and the wall time [s].
+fn run_replay(
+    robot: &Robot,
+    demo: &Demo,
+    object: &ObjectShape,
+    supports: &[(String, CollisionShape)],
+    solid: &[(String, CollisionShape)],
+    params: &Params,
+) -> Result<(replay::Trace, f64)> {
     let fixed: Vec<FixedItem<'_>> = supports
         .iter()
         .map(|(_, s)| FixedItem {
@@ -264,57 +353,53 @@ pub fn validate(
             tag: Tag::Barrier,
         }))
         .collect();
-
-    // 3. Replay, and 4a. the penetration checks at the demonstration's poses, which do not
-    // depend on the replay: the two run side by side.
     let n = replay::steps_per_frame(demo.fps, params.max_dt_s);
-    let barrier_names: Vec<String> = solid.iter().map(|(n, _)| n.clone()).collect();
-    let support_names: Vec<String> = supports.iter().map(|(n, _)| n.clone()).collect();
-    let (replay, (pen, penetration_s)) = rayon::join(
-        || {
-            let t_replay = Instant::now();
-            let mut link_poses = robot.new_link_poses();
-            let f0 = &demo.frames[0];
-            robot.forward_kinematics(&f0.wrist, &f0.joints, &mut link_poses);
-            let mut world = ReplayWorld::with_hand_model(
-                robot,
-                &link_poses,
-                &f0.joints,
-                &object,
-                &f0.object,
-                demo.object.mass,
-                &fixed,
-                params,
-                1.0 / (n as f64 * demo.fps),
-                Vector3::from(params.gravity),
-            )?;
-            let trace = replay::replay(robot, demo, &mut world, n);
-            Ok::<_, Error>((trace, t_replay.elapsed().as_secs_f64()))
-        },
-        || {
-            let t_pen = Instant::now();
-            let pen = penetrations(
-                robot,
-                demo,
-                &object,
-                &sdf,
-                &solid,
-                &supports,
-                &barrier_names,
-                &support_names,
-                params,
-            );
-            (pen, t_pen.elapsed().as_secs_f64())
-        },
-    );
-    let (trace, replay_s) = replay?;
-    let PenetrationRun {
-        penetration,
-        per_ho,
-        per_hb,
-    } = pen;
+    let t_replay = Instant::now();
+    let mut link_poses = robot.new_link_poses();
+    let f0 = &demo.frames[0];
+    robot.forward_kinematics(&f0.wrist, &f0.joints, &mut link_poses);
+    let mut world = ReplayWorld::with_hand_model(
+        robot,
+        &link_poses,
+        &f0.joints,
+        object,
+        &f0.object,
+        demo.object.mass,
+        &fixed,
+        params,
+        1.0 / (n as f64 * demo.fps),
+        Vector3::from(params.gravity),
+    )?;
+    let trace = replay::replay(robot, demo, &mut world, n);
+    Ok((trace, t_replay.elapsed().as_secs_f64()))
+}
 
-    // 4b. Checks on the replay.
+/// The checks on the replay (4b), with the per-frame errors they read.
+struct ReplayChecks {
+    segment: Option<ContactSegment>,
+    /// Position [m] and rotation [rad] error of the simulated object, per frame.
+    pos_err: Vec<f64>,
+    rot_err: Vec<f64>,
+    tracking: Tracking,
+    /// Whether the hand touches the simulated object, per frame.
+    touching: Vec<bool>,
+    dropped: Option<Drop>,
+    stability: Option<Stability>,
+    /// Wall time of the stability samples [s].
+    stability_s: f64,
+    release: Option<Release>,
+    grip: Option<Grip>,
+}
+
+/// Tracking, drop, stability, release and grip of the replay `trace`.
+fn check_replay(
+    robot: &Robot,
+    demo: &Demo,
+    object: &ObjectShape,
+    supports: &[(String, CollisionShape)],
+    trace: &replay::Trace,
+    params: &Params,
+) -> ReplayChecks {
     let segment = demo.contact_segment();
     let (pos_err, rot_err, tracking) = checks::tracking_errors(demo, &trace.object);
     let touch_reach = params.finger_skin_m + params.touch_tolerance_m;
@@ -328,7 +413,7 @@ pub fn validate(
         .map(|(frame, sim)| {
             robot.forward_kinematics(&frame.wrist, &frame.joints, &mut link_poses);
             checks::place_hand(&shapes, &link_poses, &mut hand_placed);
-            checks::hand_touches(&hand_placed, &object, sim, touch_reach)
+            checks::hand_touches(&hand_placed, object, sim, touch_reach)
         })
         .collect();
     let dropped = segment.and_then(|s| {
@@ -342,38 +427,80 @@ pub fn validate(
     });
 
     let t_stab = Instant::now();
-    let stability = segment.map(|s| {
-        let frames = checks::stability_frames(s, params.stability_samples);
-        // Independent worlds: in parallel, results in frame order.
-        let displacement: Vec<f64> = frames
-            .par_iter()
-            .map(|&f| {
-                let frame = &demo.frames[f];
-                let mut link_poses = robot.new_link_poses();
-                robot.forward_kinematics(&frame.wrist, &frame.joints, &mut link_poses);
-                checks::sim_displacement(
-                    robot,
-                    &link_poses,
-                    &object,
-                    &frame.object,
-                    demo.object.mass,
-                    params,
-                )
-            })
-            .collect();
-        checks::stability_stats(frames, &displacement, params)
-    });
+    let stability = segment.map(|s| stability(robot, demo, object, s, params));
     let stability_s = t_stab.elapsed().as_secs_f64();
 
+    let release = release(demo, object, supports, trace, segment, params);
+
+    let grip = segment.map(|s| {
+        checks::grip(
+            &trace.grip[s.start..=s.end],
+            demo.object.mass * Vector3::from(params.gravity).norm(),
+        )
+    });
+    ReplayChecks {
+        segment,
+        pos_err,
+        rot_err,
+        tracking,
+        touching,
+        dropped,
+        stability,
+        stability_s,
+        release,
+        grip,
+    }
+}
+
+/// Simulation displacement at sampled frames of the contact segment `s`: the hand frozen,
+/// each frame in a world of its own.
+fn stability(
+    robot: &Robot,
+    demo: &Demo,
+    object: &ObjectShape,
+    s: ContactSegment,
+    params: &Params,
+) -> Stability {
+    let frames = checks::stability_frames(s, params.stability_samples);
+    // Independent worlds: in parallel, results in frame order.
+    let displacement: Vec<f64> = frames
+        .par_iter()
+        .map(|&f| {
+            let frame = &demo.frames[f];
+            let mut link_poses = robot.new_link_poses();
+            robot.forward_kinematics(&frame.wrist, &frame.joints, &mut link_poses);
+            checks::sim_displacement(
+                robot,
+                &link_poses,
+                object,
+                &frame.object,
+                demo.object.mass,
+                params,
+            )
+        })
+        .collect();
+    checks::stability_stats(frames, &displacement, params)
+}
+
+/// Where the object ends after the release (when the contact segment ends before the last
+/// frame): at rest on a support or not.
+fn release(
+    demo: &Demo,
+    object: &ObjectShape,
+    supports: &[(String, CollisionShape)],
+    trace: &replay::Trace,
+    segment: Option<ContactSegment>,
+    params: &Params,
+) -> Option<Release> {
     let last = demo.frames.len() - 1;
-    let release = segment.filter(|s| s.end < last).map(|s| {
+    segment.filter(|s| s.end < last).map(|s| {
         let pose = &trace.object[last];
         let window = ((params.rest_window_s * demo.fps).ceil() as usize).min(last - s.end);
         let motion = trace.object[last - window..]
             .iter()
             .map(|p| (p.translation.vector - pose.translation.vector).norm())
             .fold(0.0, f64::max);
-        let nearest = checks::nearest_support(&object, pose, &named(&supports));
+        let nearest = checks::nearest_support(object, pose, &named(supports));
         let rests = motion <= params.rest_motion_m
             && nearest
                 .as_ref()
@@ -386,24 +513,34 @@ pub fn validate(
             final_motion_mm: motion * 1e3,
             final_speed_m_s: trace.speed_m_s[last],
         }
-    });
+    })
+}
 
-    let grip = segment.map(|s| {
-        checks::grip(
-            &trace.grip[s.start..=s.end],
-            demo.object.mass * Vector3::from(params.gravity).norm(),
-        )
-    });
-
-    // 5. Verdict.
+/// The report of the checks, with every failed one as a reason (the margin not yet run).
+fn judge(
+    demo: &Demo,
+    object: &ObjectShape,
+    cached: bool,
+    trace: &replay::Trace,
+    pen: PenetrationRun,
+    checked: ReplayChecks,
+    timing: Timing,
+    params: &Params,
+) -> PhysicsReport {
+    let PenetrationRun {
+        penetration,
+        per_ho,
+        per_hb,
+    } = pen;
+    let segment = checked.segment;
     let mut report = PhysicsReport {
         reasons: Vec::new(),
-        tracking,
-        drop: dropped,
+        tracking: checked.tracking,
+        drop: checked.dropped,
         penetration,
-        stability,
-        release,
-        grip,
+        stability: checked.stability,
+        release: checked.release,
+        grip: checked.grip,
         replay: ReplayInfo {
             frames: demo.frames.len(),
             steps: trace.steps,
@@ -418,47 +555,52 @@ pub fn validate(
             hand: params.hand,
         },
         margin: None,
-        timing_s: Timing {
-            decomposition: decomposition_s,
-            replay: replay_s,
-            penetration: penetration_s,
-            stability: stability_s,
-            margin: 0.0,
-            total: 0.0,
-        },
+        timing_s: timing,
         per_frame: PerFrame {
-            position_error_mm: pos_err.iter().map(|e| e * 1e3).collect(),
-            rotation_error_deg: rot_err.iter().map(|e| e.to_degrees()).collect(),
-            hand_touching: touching,
+            position_error_mm: checked.pos_err.iter().map(|e| e * 1e3).collect(),
+            rotation_error_deg: checked.rot_err.iter().map(|e| e.to_degrees()).collect(),
+            hand_touching: checked.touching,
             hand_object_penetration_mm: per_ho,
             hand_barrier_penetration_mm: per_hb,
         },
     };
     report.reasons = verdict::reasons(&report, params);
-    if params.margin {
-        let nominal = margin::Condition {
-            friction_scale: 1.0,
-            friction: params.hand_friction,
-            mass_scale: 1.0,
-            passed: report.passed(),
-            reason: report.reasons.first().cloned(),
-        };
-        let clock = Instant::now();
-        let m = margin::given_nominal(
-            nominal,
-            robot,
-            demo,
-            scene,
-            barriers,
-            object_mesh,
-            params,
-            limits,
-        )?;
-        report.timing_s.margin = clock.elapsed().as_secs_f64();
-        report.margin = Some(m);
-    }
-    report.timing_s.total = start.elapsed().as_secs_f64();
-    Ok(report)
+    report
+}
+
+/// The robustness margin of the judged `report` ([`margin`]): the replay again under lower
+/// friction and higher mass, with its wall time.
+fn add_margin(
+    report: &mut PhysicsReport,
+    robot: &Robot,
+    demo: &Demo,
+    scene: &Scene,
+    barriers: &[String],
+    object_mesh: &Mesh,
+    params: &Params,
+    limits: &Limits,
+) -> Result<()> {
+    let nominal = margin::Condition {
+        friction_scale: 1.0,
+        friction: params.hand_friction,
+        mass_scale: 1.0,
+        passed: report.passed(),
+        reason: report.reasons.first().cloned(),
+    };
+    let clock = Instant::now();
+    let m = margin::given_nominal(
+        nominal,
+        robot,
+        demo,
+        scene,
+        barriers,
+        object_mesh,
+        params,
+        limits,
+    )?;
+    report.timing_s.margin = clock.elapsed().as_secs_f64();
+    report.margin = Some(m);
+    Ok(())
 }
 
 /// The four penetration figures and the per-frame hand-object and hand-barrier depths [mm].

@@ -136,47 +136,7 @@ pub fn trajectory(
     cache: &mut Cache,
     limits: &Limits,
 ) -> Result<Value> {
-    let inputs = report.provenance.as_ref().map(|p| &p.inputs);
-    let input = |role: &str| {
-        inputs
-            .and_then(|i| i.get(role))
-            .map(|f| PathBuf::from(&f.path))
-    };
-    let (primary, original) = match output_demo(dir) {
-        Some(out) => (
-            cache.demo(&out, limits)?,
-            input("demo").and_then(|p| cache.demo(&p, limits).ok()),
-        ),
-        None => {
-            let Some(p) = input("demo") else {
-                return Err(Error::invalid(
-                    &dir.join("report.json"),
-                    "provenance.inputs.demo",
-                    "the folder has no *.demo.json and the report names no demonstration",
-                ));
-            };
-            (cache.demo(&p, limits)?, None)
-        }
-    };
-    let same = |a: &Path, b: &Path| {
-        a == b
-            || std::fs::canonicalize(a)
-                .ok()
-                .is_some_and(|x| std::fs::canonicalize(b).ok() == Some(x))
-    };
-    let original = original.filter(|o| same(&o.robot, &primary.robot));
-    for d in std::iter::once(&primary).chain(original.as_ref()) {
-        if d.frames.len() > MAX_FRAMES {
-            return Err(Error::invalid(
-                &d.source,
-                "frames",
-                format!(
-                    "has {} frames; the player draws at most {MAX_FRAMES}",
-                    d.frames.len()
-                ),
-            ));
-        }
-    }
+    let (primary, original) = demos(dir, report, cache, limits)?;
     let robot = cache.robot(&primary.robot, limits)?;
     let drawn: Vec<usize> = (0..robot.link_count())
         .filter(|&l| !robot.links()[l].collision.is_empty())
@@ -231,26 +191,8 @@ pub fn trajectory(
             .map(|f| u32::from(!f.contacts.is_empty()))
             .collect(),
     };
-    // The output hand's deepest probe in the object per frame, as the physics check measures
-    // it at the trajectory's poses (frames.csv has the IK's, before smoothing).
     let object = cache.mesh(&primary.object.mesh, Vector3::repeat(1.0), limits)?;
-    let penetration: Vec<Value> = match crate::geometry::object_sdf(&object) {
-        Some(sdf) => {
-            let mut poses = robot.new_link_poses();
-            primary
-                .frames
-                .iter()
-                .map(|f| {
-                    robot.forward_kinematics(&f.wrist, &f.joints, &mut poses);
-                    let d =
-                        crate::robot::probes::deepest(&robot, &poses, &f.object.inverse(), &sdf)
-                            .map_or(0.0, |(d, _)| d * 1000.0);
-                    json!((d * 100.0).round() / 100.0)
-                })
-                .collect()
-        }
-        None => Vec::new(),
-    };
+    let penetration = penetration_mm(&robot, &primary, &object);
     let limit_mm = report
         .provenance
         .as_ref()
@@ -258,81 +200,9 @@ pub fn trajectory(
         .and_then(|p| p.get("max_hand_object_penetration_m"))
         .and_then(Value::as_f64)
         .map_or(DEFAULT_PENETRATION_LIMIT_MM, |m| m * 1000.0);
-
-    let waypoints = input("config")
-        .and_then(|c| WarpConfig::load(&c, limits).ok())
-        .map(|c| {
-            let mut w: Vec<Value> = c
-                .waypoints
-                .iter()
-                .map(|w| json!({"p": [w.position.x, w.position.y, w.position.z], "t_new": w.t_new, "label": format!("waypoint t_new {}", w.t_new)}))
-                .collect();
-            if let Some(s) = c.start {
-                w.push(json!({"p": [s.x, s.y, s.z], "t_new": null, "label": "new start"}));
-            }
-            if let Some(e) = c.end {
-                w.push(json!({"p": [e.x, e.y, e.z], "t_new": null, "label": "new end"}));
-            }
-            w
-        })
-        .unwrap_or_default();
-
-    let scene = match &primary.scene {
-        Some(path) => {
-            let s = cache.scene(path, limits)?;
-            let mut items = Vec::new();
-            for it in &s.items {
-                let shape = match &it.shape {
-                    ShapeJson::Mesh { path, scale } => {
-                        let m = cache.mesh(path, Vector3::from(*scale), limits)?;
-                        json!({"type": "mesh", "mesh": mesh_json(&m)})
-                    }
-                    other => serde_json::to_value(other).unwrap_or(Value::Null),
-                };
-                items.push(json!({
-                    "name": it.name,
-                    "role": it.role.as_str(),
-                    "active": it.role == Role::Barrier && primary.barriers.contains(&it.name),
-                    "pose": encode::pose_json(&it.pose),
-                    "shape": shape,
-                }));
-            }
-            items
-        }
-        None => Vec::new(),
-    };
-
-    let links: Vec<Value> = drawn
-        .iter()
-        .map(|&l| {
-            let link = &robot.links()[l];
-            let shapes: Vec<Value> = link
-                .collision
-                .iter()
-                .map(|c| {
-                    let mut s = match &c.kind {
-                        ShapeKind::Box { size } => {
-                            json!({"type": "box", "size": [size.x, size.y, size.z]})
-                        }
-                        ShapeKind::Sphere { radius } => json!({"type": "sphere", "radius": radius}),
-                        ShapeKind::Cylinder { radius, length } => {
-                            json!({"type": "cylinder", "radius": radius, "length": length})
-                        }
-                        ShapeKind::Capsule { radius, length } => {
-                            json!({"type": "capsule", "radius": radius, "length": length})
-                        }
-                        ShapeKind::Mesh { mesh, .. } => {
-                            json!({"type": "mesh", "mesh": mesh_json(mesh)})
-                        }
-                    };
-                    s["pose"] = encode::pose_json(&c.origin);
-                    s
-                })
-                .collect();
-            json!({"name": link.name, "shapes": shapes})
-        })
-        .collect();
-
+    let waypoints = waypoints_json(report, limits);
+    let scene = scene_json(&primary, cache, limits)?;
+    let links = links_json(&robot, &drawn);
     let (contact_counts, contacts, contact_grid) = contacts_json(&contact_source.frames, |name| {
         robot
             .link_id(name)
@@ -368,6 +238,166 @@ pub fn trajectory(
         "verdict": verdict,
         "reasons": reasons,
     }))
+}
+
+/// The path of the report's provenance input `role` (`demo`, `config`, ...).
+fn input(report: &Report, role: &str) -> Option<PathBuf> {
+    let inputs = report.provenance.as_ref().map(|p| &p.inputs);
+    inputs
+        .and_then(|i| i.get(role))
+        .map(|f| PathBuf::from(&f.path))
+}
+
+/// The trajectory shown (the folder's output demonstration, else the report's input) and
+/// the original it was warped from, when it has the same robot. Fails when there is no
+/// demonstration or one has more than [`MAX_FRAMES`] frames.
+fn demos(
+    dir: &Path,
+    report: &Report,
+    cache: &mut Cache,
+    limits: &Limits,
+) -> Result<(Arc<Demo>, Option<Arc<Demo>>)> {
+    let (primary, original) = match output_demo(dir) {
+        Some(out) => (
+            cache.demo(&out, limits)?,
+            input(report, "demo").and_then(|p| cache.demo(&p, limits).ok()),
+        ),
+        None => {
+            let Some(p) = input(report, "demo") else {
+                return Err(Error::invalid(
+                    &dir.join("report.json"),
+                    "provenance.inputs.demo",
+                    "the folder has no *.demo.json and the report names no demonstration",
+                ));
+            };
+            (cache.demo(&p, limits)?, None)
+        }
+    };
+    let same = |a: &Path, b: &Path| {
+        a == b
+            || std::fs::canonicalize(a)
+                .ok()
+                .is_some_and(|x| std::fs::canonicalize(b).ok() == Some(x))
+    };
+    let original = original.filter(|o| same(&o.robot, &primary.robot));
+    for d in std::iter::once(&primary).chain(original.as_ref()) {
+        if d.frames.len() > MAX_FRAMES {
+            return Err(Error::invalid(
+                &d.source,
+                "frames",
+                format!(
+                    "has {} frames; the player draws at most {MAX_FRAMES}",
+                    d.frames.len()
+                ),
+            ));
+        }
+    }
+    Ok((primary, original))
+}
+
+/// The output hand's deepest probe in the object per frame [mm], as the physics check
+/// measures it at the trajectory's poses (frames.csv has the IK's, before smoothing).
+fn penetration_mm(robot: &Robot, primary: &Demo, object: &Mesh) -> Vec<Value> {
+    match crate::geometry::object_sdf(object) {
+        Some(sdf) => {
+            let mut poses = robot.new_link_poses();
+            primary
+                .frames
+                .iter()
+                .map(|f| {
+                    robot.forward_kinematics(&f.wrist, &f.joints, &mut poses);
+                    let d = crate::robot::probes::deepest(robot, &poses, &f.object.inverse(), &sdf)
+                        .map_or(0.0, |(d, _)| d * 1000.0);
+                    json!((d * 100.0).round() / 100.0)
+                })
+                .collect()
+        }
+        None => Vec::new(),
+    }
+}
+
+/// The waypoints, new start and new end of the run's config, as labelled points.
+fn waypoints_json(report: &Report, limits: &Limits) -> Vec<Value> {
+    input(report, "config")
+        .and_then(|c| WarpConfig::load(&c, limits).ok())
+        .map(|c| {
+            let mut w: Vec<Value> = c
+                .waypoints
+                .iter()
+                .map(|w| json!({"p": [w.position.x, w.position.y, w.position.z], "t_new": w.t_new, "label": format!("waypoint t_new {}", w.t_new)}))
+                .collect();
+            if let Some(s) = c.start {
+                w.push(json!({"p": [s.x, s.y, s.z], "t_new": null, "label": "new start"}));
+            }
+            if let Some(e) = c.end {
+                w.push(json!({"p": [e.x, e.y, e.z], "t_new": null, "label": "new end"}));
+            }
+            w
+        })
+        .unwrap_or_default()
+}
+
+/// The scene's items (mesh items with their meshes), barriers the trajectory avoids marked
+/// active.
+fn scene_json(primary: &Demo, cache: &mut Cache, limits: &Limits) -> Result<Vec<Value>> {
+    Ok(match &primary.scene {
+        Some(path) => {
+            let s = cache.scene(path, limits)?;
+            let mut items = Vec::new();
+            for it in &s.items {
+                let shape = match &it.shape {
+                    ShapeJson::Mesh { path, scale } => {
+                        let m = cache.mesh(path, Vector3::from(*scale), limits)?;
+                        json!({"type": "mesh", "mesh": mesh_json(&m)})
+                    }
+                    other => serde_json::to_value(other).unwrap_or(Value::Null),
+                };
+                items.push(json!({
+                    "name": it.name,
+                    "role": it.role.as_str(),
+                    "active": it.role == Role::Barrier && primary.barriers.contains(&it.name),
+                    "pose": encode::pose_json(&it.pose),
+                    "shape": shape,
+                }));
+            }
+            items
+        }
+        None => Vec::new(),
+    })
+}
+
+/// The collision shapes of the `drawn` links, in their link frames.
+fn links_json(robot: &Robot, drawn: &[usize]) -> Vec<Value> {
+    drawn
+        .iter()
+        .map(|&l| {
+            let link = &robot.links()[l];
+            let shapes: Vec<Value> = link
+                .collision
+                .iter()
+                .map(|c| {
+                    let mut s = match &c.kind {
+                        ShapeKind::Box { size } => {
+                            json!({"type": "box", "size": [size.x, size.y, size.z]})
+                        }
+                        ShapeKind::Sphere { radius } => json!({"type": "sphere", "radius": radius}),
+                        ShapeKind::Cylinder { radius, length } => {
+                            json!({"type": "cylinder", "radius": radius, "length": length})
+                        }
+                        ShapeKind::Capsule { radius, length } => {
+                            json!({"type": "capsule", "radius": radius, "length": length})
+                        }
+                        ShapeKind::Mesh { mesh, .. } => {
+                            json!({"type": "mesh", "mesh": mesh_json(mesh)})
+                        }
+                    };
+                    s["pose"] = encode::pose_json(&c.origin);
+                    s
+                })
+                .collect();
+            json!({"name": link.name, "shapes": shapes})
+        })
+        .collect()
 }
 
 /// A mesh as `{v, t, grid}`: `int16` vertices on their own grid, `uint32` triangles (every

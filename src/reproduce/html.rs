@@ -362,8 +362,19 @@ fn naive_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
     }
 }
 
+/// The page's figures, each with its caption: the timewarp, the showcase's heights, D_C and
+/// tracking error, the robustness curves and the naive figures.
 fn plots(rep: &Reproduction) -> Vec<(String, String)> {
     let mut out = Vec::new();
+    timewarp_plot(rep, &mut out);
+    showcase_plots(rep, &mut out);
+    robustness_plot(rep, &mut out);
+    naive_plots(rep, &mut out);
+    out
+}
+
+/// τ of `allegro_apple_plate` (else the showcase) with contact IK, against a uniform retiming.
+fn timewarp_plot(rep: &Reproduction, out: &mut Vec<(String, String)>) {
     let tw_config = ["allegro_apple_plate"]
         .into_iter()
         .map(String::from)
@@ -398,6 +409,11 @@ fn plots(rep: &Reproduction) -> Vec<(String, String)> {
             ),
         ));
     }
+}
+
+/// The showcase's heights, per-frame D_C and physics tracking error, baseline against
+/// contact IK.
+fn showcase_plots(rep: &Reproduction, out: &mut Vec<(String, String)>) {
     if let Some(c) = showcase(rep) {
         let lm = run_dir(rep, &c, "lm_3.5mm").and_then(|d| read_frames(&d));
         let base = run_dir(rep, &c, "baseline").and_then(|d| read_frames(&d));
@@ -457,6 +473,10 @@ fn plots(rep: &Reproduction) -> Vec<(String, String)> {
             }
         }
     }
+}
+
+/// D_C of [`ROBUSTNESS_CONFIG`] against the share of correspondences deleted or permuted.
+fn robustness_plot(rep: &Reproduction, out: &mut Vec<(String, String)>) {
     let curve = |kind: &str| -> Vec<(f64, f64)> {
         (0..=100)
             .step_by(10)
@@ -495,8 +515,6 @@ fn plots(rep: &Reproduction) -> Vec<(String, String)> {
             ),
         ));
     }
-    naive_plots(rep, &mut out);
-    out
 }
 
 fn escape(s: &str) -> String {

@@ -63,6 +63,17 @@ impl Robot {
 
 impl Display for Robot {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.write_summary(f)?;
+        writeln!(f)?;
+        self.write_joints(f)?;
+        writeln!(f)?;
+        self.write_links(f)
+    }
+}
+
+impl Robot {
+    /// The summary: name and file, link and joint counts, DoF, root link, surface points.
+    fn write_summary(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let count = |k: JointKind| self.joints.iter().filter(|j| j.kind == k).count();
         let mimics = self.joints.iter().filter(|j| j.mimic.is_some()).count();
         writeln!(f, "robot '{}'  ({})", self.name, self.source.display())?;
@@ -93,9 +104,11 @@ impl Display for Robot {
             "  surface points: {} (for contacts and the IK barrier)",
             self.surface_point_count()
         )?;
+        Ok(())
+    }
 
-        // Joint table, columns sized to the content.
-        writeln!(f)?;
+    /// The joint table in tree order, columns sized to the content.
+    fn write_joints(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "joints (tree order; q index for actuated joints):")?;
         let rows: Vec<[String; 6]> = self
             .joints
@@ -163,8 +176,11 @@ impl Display for Robot {
         for r in &rows {
             line(f, r.each_ref().map(String::as_str))?;
         }
+        Ok(())
+    }
 
-        writeln!(f)?;
+    /// Per link: its collision shapes and surface points.
+    fn write_links(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "links (collision shapes in the link frame):")?;
         for l in &self.links {
             if l.collision.is_empty() {

@@ -205,22 +205,6 @@ pub fn synthesize(
     let mesh = object.mesh();
     let geo = ObjectGeometry::new(mesh.clone())
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
-    // Our hands have named templates for the objects they were made with; any other hand,
-    // object or `--tips` gets its grasp from the hand's kinematics (so does a hand whose
-    // link names match ours but whose named grasp fails). When the grasp of every finger is
-    // out of reach, the thumb and the two fingers it opposes try alone.
-    let named = HandFamily::detect(robot)
-        .filter(|_| spec.tips.is_none())
-        .and_then(|family| templates::template(family, object));
-    let generic = || -> Result<Vec<GraspTemplate>> {
-        let layout = super::generic::layout(robot, spec.tips.as_deref())
-            .map_err(|e| fail("(robot)", format!("robot {:?}: {e}", robot.name)))?;
-        let mut out = vec![super::generic::template(robot, &layout, &geo)];
-        if let Some(tripod) = super::generic::tripod(&layout) {
-            out.push(super::generic::template(robot, &tripod, &geo));
-        }
-        Ok(out)
-    };
     let shape = object_shape(&mesh, mesh_path)
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
 
@@ -242,50 +226,7 @@ pub fn synthesize(
     )
     .expect("a box is a valid shape");
 
-    let mut queue: Vec<GraspTemplate> = named.into_iter().collect();
-    let mut generic_queued = false;
-    let mut first_err = None;
-    let mut k = 0;
-    let solved = loop {
-        if k == queue.len() {
-            if generic_queued {
-                break None;
-            }
-            generic_queued = true;
-            match generic() {
-                Ok(ts) => queue.extend(ts),
-                Err(e) if first_err.is_none() => return Err(e),
-                Err(_) => break None,
-            }
-            continue;
-        }
-        let template = queue[k].clone();
-        k += 1;
-        match grasp::solve(
-            robot,
-            &template,
-            &geo,
-            &shape,
-            &start,
-            std::slice::from_ref(&table),
-            &spec.grasp,
-        ) {
-            Ok(g) => break Some((template, g)),
-            Err(e) => {
-                first_err.get_or_insert(e);
-            }
-        }
-    };
-    let (template, g) = solved.ok_or_else(|| {
-        let e = first_err.expect("a failed solve left its error");
-        fail(
-            "(grasp)",
-            format!(
-                "cannot grasp object '{object}' with robot {:?}: {e}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
-                robot.name
-            ),
-        )
-    })?;
+    let (template, g) = grasp_search(spec, robot, robot_path, &geo, &shape, &start, &table)?;
 
     // Correspondences at the grasp, object frame.
     let mut poses = robot.new_link_poses();
@@ -328,6 +269,109 @@ pub fn synthesize(
     round_demo(&mut demo);
 
     // Every frame: hand-object penetration (in-contact frames share one relative pose).
+    let (worst, c0, c1) = check_penetration(spec, robot, robot_path, &geo, &demo, &mut poses)?;
+    let per_frame = crate::metrics::contact_distance_per_frame_mm(robot, &demo);
+    let d_c_mm = crate::metrics::d_c_mm(&per_frame);
+    Ok(Synthesis {
+        stats: SynthStats {
+            grasp: g,
+            contacts_per_frame: base_contacts.len(),
+            d_c_mm,
+            max_penetration_mm: worst * 1e3,
+            contact_segment: (c0, c1),
+        },
+        demo,
+    })
+}
+
+/// The grasp and the template it was solved from: the first template whose grasp IK
+/// succeeds on the object at `start` (with the support `table` as a barrier). Fails with the
+/// first solve's error when none does.
+fn grasp_search(
+    spec: &SynthSpec,
+    robot: &Robot,
+    robot_path: &Path,
+    geo: &ObjectGeometry,
+    shape: &CollisionShape,
+    start: &Isometry3<f64>,
+    table: &CollisionShape,
+) -> Result<(GraspTemplate, Grasp)> {
+    let object = spec.object;
+    let fail = |field: &str, msg: String| Error::invalid(robot_path, field, msg);
+    // Our hands have named templates for the objects they were made with; any other hand,
+    // object or `--tips` gets its grasp from the hand's kinematics (so does a hand whose
+    // link names match ours but whose named grasp fails). When the grasp of every finger is
+    // out of reach, the thumb and the two fingers it opposes try alone.
+    let named = HandFamily::detect(robot)
+        .filter(|_| spec.tips.is_none())
+        .and_then(|family| templates::template(family, object));
+    let generic = || -> Result<Vec<GraspTemplate>> {
+        let layout = super::generic::layout(robot, spec.tips.as_deref())
+            .map_err(|e| fail("(robot)", format!("robot {:?}: {e}", robot.name)))?;
+        let mut out = vec![super::generic::template(robot, &layout, geo)];
+        if let Some(tripod) = super::generic::tripod(&layout) {
+            out.push(super::generic::template(robot, &tripod, geo));
+        }
+        Ok(out)
+    };
+    let mut queue: Vec<GraspTemplate> = named.into_iter().collect();
+    let mut generic_queued = false;
+    let mut first_err = None;
+    let mut k = 0;
+    let solved = loop {
+        if k == queue.len() {
+            if generic_queued {
+                break None;
+            }
+            generic_queued = true;
+            match generic() {
+                Ok(ts) => queue.extend(ts),
+                Err(e) if first_err.is_none() => return Err(e),
+                Err(_) => break None,
+            }
+            continue;
+        }
+        let template = queue[k].clone();
+        k += 1;
+        match grasp::solve(
+            robot,
+            &template,
+            geo,
+            shape,
+            start,
+            std::slice::from_ref(table),
+            &spec.grasp,
+        ) {
+            Ok(g) => break Some((template, g)),
+            Err(e) => {
+                first_err.get_or_insert(e);
+            }
+        }
+    };
+    solved.ok_or_else(|| {
+        let e = first_err.expect("a failed solve left its error");
+        fail(
+            "(grasp)",
+            format!(
+                "cannot grasp object '{object}' with robot {:?}: {e}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
+                robot.name
+            ),
+        )
+    })
+}
+
+/// The deepest hand-object penetration of the frames outside the in-contact segment
+/// `[c0, c1]` (which share the grasp's relative pose) [m], and `c0`, `c1`. Fails at the
+/// first frame over [`SynthSpec::max_penetration_mm`].
+fn check_penetration(
+    spec: &SynthSpec,
+    robot: &Robot,
+    robot_path: &Path,
+    geo: &ObjectGeometry,
+    demo: &Demo,
+    poses: &mut [Isometry3<f64>],
+) -> Result<(f64, usize, usize)> {
+    let fail = |field: &str, msg: String| Error::invalid(robot_path, field, msg);
     let mut worst: f64 = 0.0;
     let c0 = spec.timing.idle + spec.timing.reach + spec.timing.close;
     let c1 = c0 + spec.timing.contact_frames() - 1;
@@ -335,8 +379,8 @@ pub fn synthesize(
         if i > c0 && i <= c1 {
             continue;
         }
-        robot.forward_kinematics(&f.wrist, &f.joints, &mut poses);
-        let p = penetration(robot, &poses, &geo, &f.object);
+        robot.forward_kinematics(&f.wrist, &f.joints, poses);
+        let p = penetration(robot, poses, geo, &f.object);
         if p.depth_m * 1e3 > spec.max_penetration_mm {
             let link = p.link.map_or("?", |l| robot.link(l).name.as_str());
             return Err(fail(
@@ -351,18 +395,7 @@ pub fn synthesize(
         }
         worst = worst.max(p.depth_m);
     }
-    let per_frame = crate::metrics::contact_distance_per_frame_mm(robot, &demo);
-    let d_c_mm = crate::metrics::d_c_mm(&per_frame);
-    Ok(Synthesis {
-        stats: SynthStats {
-            grasp: g,
-            contacts_per_frame: base_contacts.len(),
-            d_c_mm,
-            max_penetration_mm: worst * 1e3,
-            contact_segment: (c0, c1),
-        },
-        demo,
-    })
+    Ok((worst, c0, c1))
 }
 
 /// The frames of the three segments (see the module docs).

@@ -161,6 +161,39 @@ fn leaf_tips(robot: &Robot) -> Vec<LinkId> {
 /// fingertip links; `None` finds them from the tree. The error says what is missing and
 /// how to give it.
 pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, String> {
+    let tip_ids = fingertips(robot, tips)?;
+    let q_ref = {
+        let mut q = vec![0.0; robot.dof()];
+        robot.clamp(&mut q);
+        q
+    };
+    let mut signs = closing_signs(robot, &q_ref);
+    let mut poses = robot.new_link_poses();
+    robot.forward_kinematics(&Isometry3::identity(), &q_ref, &mut poses);
+    let mut jac = vec![Vector3::zeros(); WRIST_DOF + robot.dof()];
+    let found = tip_surfaces(robot, &tip_ids)?;
+    prismatic_signs(robot, &poses, &found, &mut signs, &mut jac);
+    let mut fingers = Vec::new();
+    for (tip, distal, pts, normals) in found {
+        fingers.push(finger(
+            robot, &poses, &signs, &mut jac, tip, distal, &pts, &normals,
+        )?);
+    }
+    let (thumb, palm_normal, f_dir) = palm(&fingers)?;
+    Ok(HandLayout {
+        fingers,
+        thumb,
+        palm_normal,
+        finger_dir: f_dir,
+        q_ref,
+    })
+}
+
+/// A fingertip, its distal link and that link's surface samples and normals (link frame).
+type TipSurface = (LinkId, LinkId, Vec<Point3<f64>>, Vec<Vector3<f64>>);
+
+/// The fingertip links: `tips` (each moved by a joint), else the leaf links. At least two.
+fn fingertips(robot: &Robot, tips: Option<&[String]>) -> Result<Vec<LinkId>, String> {
     let movable = |l: LinkId| !robot.chain(l).is_empty();
     let tip_ids: Vec<LinkId> = match tips {
         Some(names) => names
@@ -184,22 +217,17 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
             tip_ids.len()
         ));
     }
-    let q_ref = {
-        let mut q = vec![0.0; robot.dof()];
-        robot.clamp(&mut q);
-        q
-    };
-    let mut signs = closing_signs(robot, &q_ref);
-    let mut poses = robot.new_link_poses();
-    robot.forward_kinematics(&Isometry3::identity(), &q_ref, &mut poses);
-    let mut jac = vec![Vector3::zeros(); WRIST_DOF + robot.dof()];
+    Ok(tip_ids)
+}
+
+/// Per fingertip: its distal link and that link's surface samples (link frame).
+fn tip_surfaces(robot: &Robot, tip_ids: &[LinkId]) -> Result<Vec<TipSurface>, String> {
     let fine = SurfaceSampling {
         spacing: 0.003,
         max_per_shape: 4000,
     };
-    // Per fingertip: its distal link and that link's surface samples (link frame).
     let mut found = Vec::with_capacity(tip_ids.len());
-    for &tip in &tip_ids {
+    for &tip in tip_ids {
         let mut distal = tip;
         while robot.link(distal).collision.is_empty() {
             match robot.link(distal).parent_joint {
@@ -222,9 +250,19 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
         }
         found.push((tip, distal, pts, normals));
     }
-    // A prismatic joint closes toward the other fingers (a jaw's range says nothing about
-    // which end is closed): the sign of its motion of the distal link's surface centroid
-    // toward the centroid of the other fingers' ones.
+    Ok(found)
+}
+
+/// A prismatic joint closes toward the other fingers (a jaw's range says nothing about
+/// which end is closed): the sign of its motion of the distal link's surface centroid
+/// toward the centroid of the other fingers' ones. Overwrites those joints' `signs`.
+fn prismatic_signs(
+    robot: &Robot,
+    poses: &[Isometry3<f64>],
+    found: &[TipSurface],
+    signs: &mut [f64],
+    jac: &mut [Vector3<f64>],
+) {
     let centres: Vec<Point3<f64>> = found
         .iter()
         .map(|(_, distal, pts, _)| {
@@ -240,7 +278,7 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
             .map(|(_, c)| c.coords)
             .sum::<Vector3<f64>>()
             / (centres.len() - 1) as f64;
-        robot.world_point_jacobian(&poses, *tip, &centres[k], &mut jac);
+        robot.world_point_jacobian(poses, *tip, &centres[k], jac);
         for &j in robot.chain(*tip) {
             let joint = robot.joint(j);
             let Some(i) = joint.dof.or(joint.mimic.map(|m| m.driver)) else {
@@ -254,67 +292,83 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
             }
         }
     }
-    let mut fingers = Vec::new();
-    for (tip, distal, pts, normals) in found {
-        let first = robot.chain(tip)[0];
-        let base = Point3::from(poses[robot.joint(first).child.index()].translation.vector);
-        let dpose = poses[distal.index()];
-        // The fingertip point: the tip frame when the tip has no geometry, else the distal
-        // surface point farthest from the base.
-        let end = if robot.link(tip).collision.is_empty() && tip != distal {
-            Point3::from(poses[tip.index()].translation.vector)
-        } else {
-            pts.iter()
-                .map(|p| dpose * p)
-                .max_by(|a, b| (a - base).norm().total_cmp(&(b - base).norm()))
-                .unwrap_or(base)
-        };
-        robot.world_point_jacobian(&poses, tip, &end, &mut jac);
-        let closing: Vector3<f64> = robot
-            .chain(tip)
-            .iter()
-            .filter_map(|&j| {
-                robot
-                    .joint(j)
-                    .dof
-                    .or(robot.joint(j).mimic.map(|m| m.driver))
-            })
-            .collect::<std::collections::BTreeSet<_>>()
-            .into_iter()
-            .map(|i| jac[WRIST_DOF + i] * signs[i])
-            .sum();
-        let closing = closing.try_normalize(1e-9).unwrap_or_else(Vector3::zeros);
-        let along = (end - base).try_normalize(1e-9).unwrap_or_else(Vector3::z);
-        // Pad: the surface point most along the closing motion (toward the other fingers
-        // when the finger has none), a third of the weight toward the finger's end, among
-        // the points whose surface faces that way (all points when none does).
-        let toward = if closing == Vector3::zeros() {
-            -along
-        } else {
-            closing
-        };
-        let score = |p: &Point3<f64>| {
-            let w = dpose * p;
-            w.coords.dot(&toward) + (w - base).dot(&along) / 3.0
-        };
-        let faces = |n: &Vector3<f64>| (dpose.rotation * n).dot(&toward) >= 0.5;
-        let any_faces = normals.iter().any(faces);
-        let best = pts
-            .iter()
-            .zip(&normals)
-            .filter(|(_, n)| !any_faces || faces(n))
-            .max_by(|(a, _), (b, _)| score(a).total_cmp(&score(b)))
-            .ok_or_else(|| format!("link {:?} has no surface", robot.link(distal).name))?;
-        fingers.push(Finger {
-            tip,
-            distal,
-            pad: *best.0,
-            inward: -best.1,
-            base,
-            end,
-            closing,
-        });
-    }
+}
+
+/// The finger of fingertip `tip`: base, end, closing motion and pad on `distal`'s surface
+/// (`pts`, `normals`, link frame).
+fn finger(
+    robot: &Robot,
+    poses: &[Isometry3<f64>],
+    signs: &[f64],
+    jac: &mut [Vector3<f64>],
+    tip: LinkId,
+    distal: LinkId,
+    pts: &[Point3<f64>],
+    normals: &[Vector3<f64>],
+) -> Result<Finger, String> {
+    let first = robot.chain(tip)[0];
+    let base = Point3::from(poses[robot.joint(first).child.index()].translation.vector);
+    let dpose = poses[distal.index()];
+    // The fingertip point: the tip frame when the tip has no geometry, else the distal
+    // surface point farthest from the base.
+    let end = if robot.link(tip).collision.is_empty() && tip != distal {
+        Point3::from(poses[tip.index()].translation.vector)
+    } else {
+        pts.iter()
+            .map(|p| dpose * p)
+            .max_by(|a, b| (a - base).norm().total_cmp(&(b - base).norm()))
+            .unwrap_or(base)
+    };
+    robot.world_point_jacobian(poses, tip, &end, jac);
+    let closing: Vector3<f64> = robot
+        .chain(tip)
+        .iter()
+        .filter_map(|&j| {
+            robot
+                .joint(j)
+                .dof
+                .or(robot.joint(j).mimic.map(|m| m.driver))
+        })
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .map(|i| jac[WRIST_DOF + i] * signs[i])
+        .sum();
+    let closing = closing.try_normalize(1e-9).unwrap_or_else(Vector3::zeros);
+    let along = (end - base).try_normalize(1e-9).unwrap_or_else(Vector3::z);
+    // Pad: the surface point most along the closing motion (toward the other fingers
+    // when the finger has none), a third of the weight toward the finger's end, among
+    // the points whose surface faces that way (all points when none does).
+    let toward = if closing == Vector3::zeros() {
+        -along
+    } else {
+        closing
+    };
+    let score = |p: &Point3<f64>| {
+        let w = dpose * p;
+        w.coords.dot(&toward) + (w - base).dot(&along) / 3.0
+    };
+    let faces = |n: &Vector3<f64>| (dpose.rotation * n).dot(&toward) >= 0.5;
+    let any_faces = normals.iter().any(faces);
+    let best = pts
+        .iter()
+        .zip(normals)
+        .filter(|(_, n)| !any_faces || faces(n))
+        .max_by(|(a, _), (b, _)| score(a).total_cmp(&score(b)))
+        .ok_or_else(|| format!("link {:?} has no surface", robot.link(distal).name))?;
+    Ok(Finger {
+        tip,
+        distal,
+        pad: *best.0,
+        inward: -best.1,
+        base,
+        end,
+        closing,
+    })
+}
+
+/// The thumb (the odd one out among the fingers' directions), the palm normal and the
+/// fingers' direction.
+fn palm(fingers: &[Finger]) -> Result<(usize, Vector3<f64>, Vector3<f64>), String> {
     // Directions of the fingers, the thumb as the odd one out.
     let dirs: Vec<Vector3<f64>> = fingers
         .iter()
@@ -358,13 +412,7 @@ pub fn layout(robot: &Robot, tips: Option<&[String]>) -> Result<HandLayout, Stri
             })?
         }
     };
-    Ok(HandLayout {
-        fingers,
-        thumb,
-        palm_normal,
-        finger_dir: f_dir,
-        q_ref,
-    })
+    Ok((thumb, palm_normal, f_dir))
 }
 
 /// The thumb and the two opposing fingers whose bases are nearest the thumb's tip across

@@ -104,143 +104,164 @@ fn human_finger(f: &'static str, mcp: f64, pip: f64, dip: f64) -> Vec<(&'static 
     vec![(names[0], mcp), (names[1], pip), (names[2], dip)]
 }
 
+/// The five-finger hand's grasp of `object`, if it has one.
 fn human(object: ObjectKind) -> Option<GraspTemplate> {
-    let all = ["index", "middle", "ring", "little"];
     let t = match object {
-        ObjectKind::Cube => GraspTemplate {
-            palm_normal: [0.0, 0.0, -1.0],
-            fingers: [1.0, 0.0, 0.0],
-            preshape: [
-                human_finger("index", 0.8, 0.7, 0.4),
-                human_finger("middle", 0.8, 0.7, 0.4),
-                human_finger("ring", 0.6, 0.6, 0.3),
-                human_finger("little", 0.6, 0.6, 0.3),
-                vec![
-                    ("thumb_cmc_abd", 0.6),
-                    ("thumb_cmc_flex", 0.3),
-                    ("thumb_mcp_flex", 0.2),
-                    ("thumb_ip_flex", 0.2),
-                ],
-            ]
-            .concat(),
-            targets: vec![
-                human_pad("thumb_tip", [-0.04, 0.0, 0.01]),
-                human_pad("index_tip", [0.04, 0.013, 0.01]),
-                human_pad("middle_tip", [0.04, -0.011, 0.008]),
-            ],
-            open: [
-                human_open(&all, 0.5),
-                vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
-            ]
-            .concat(),
-            approach: [-0.5, 0.0, 1.0],
-            slide: [0.0, 0.0, 1.0],
-            turn_rad: 0.25,
-            preshape_q: None,
-            kinematic_open: false,
-        },
-        ObjectKind::FryingPan => GraspTemplate {
-            palm_normal: [0.0, 0.0, -1.0],
-            fingers: [0.0, 1.0, 0.0],
-            preshape: [
-                human_finger("index", 1.0, 1.3, 0.6),
-                human_finger("middle", 1.0, 1.3, 0.6),
-                human_finger("ring", 1.0, 1.3, 0.6),
-                human_finger("little", 1.0, 1.3, 0.6),
-                vec![("thumb_cmc_abd", 0.2), ("thumb_cmc_flex", 0.2)],
-            ]
-            .concat(),
-            targets: vec![
-                human_palm(0.0, 0.065, [0.245, 0.0, 0.08]),
-                human_pad("thumb_tip", [0.175, 0.0, 0.08]),
-                human_pad("index_tip", [0.205, -0.004, -0.02]),
-                human_pad("middle_tip", [0.228, -0.004, -0.02]),
-                human_pad("ring_tip", [0.25, -0.004, -0.02]),
-                human_pad("little_tip", [0.27, -0.004, -0.02]),
-            ],
-            open: [
-                human_open(&all, 0.9),
-                vec![("thumb_mcp_flex", -0.2), ("thumb_ip_flex", -0.3)],
-            ]
-            .concat(),
-            approach: [0.0, 0.3, 1.0],
-            slide: [1.0, 0.0, 0.0],
-            turn_rad: 0.25,
-            preshape_q: None,
-            kinematic_open: false,
-        },
-        ObjectKind::Mug => GraspTemplate {
-            palm_normal: [0.0, 0.0, -1.0],
-            fingers: [0.0, 1.0, 0.0],
-            preshape: [
-                human_finger("index", 0.8, 0.7, 0.4),
-                human_finger("middle", 0.8, 0.7, 0.4),
-                human_finger("ring", 0.8, 0.7, 0.4),
-                human_finger("little", 1.3, 1.4, 0.9),
-                vec![
-                    ("thumb_cmc_abd", 0.6),
-                    ("thumb_cmc_flex", 0.3),
-                    ("thumb_mcp_flex", 0.2),
-                    ("thumb_ip_flex", 0.2),
-                ],
-            ]
-            .concat(),
-            targets: vec![
-                human_pad("thumb_tip", [0.0, -0.05, 0.032]),
-                human_pad("index_tip", [-0.015, 0.05, 0.034]),
-                human_pad("middle_tip", [0.01, 0.05, 0.03]),
-                human_pad("ring_tip", [0.03, 0.04, 0.026]),
-            ],
-            open: [
-                human_open(&all, 0.5),
-                vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
-            ]
-            .concat(),
-            approach: [0.0, -0.5, 1.0],
-            slide: [0.0, 0.0, 1.0],
-            turn_rad: 0.25,
-            preshape_q: None,
-            kinematic_open: false,
-        },
-        // Hook grasp through the handle loop: the palm on the outer face of the handle's
-        // outer bar, index and middle through the opening with their middle phalanges on the
-        // bar's inner face, the thumb on top. The hand slides in and out along `+y` (slightly
-        // from above), with the middle finger's middle phalanx opened so it clears the bar,
-        // and without the relaxed turn, which would sweep the fingers through the bar.
-        ObjectKind::Teapot => GraspTemplate {
-            palm_normal: [1.0, 0.0, 0.0],
-            fingers: [0.0, -1.0, 0.0],
-            preshape: [
-                human_finger("index", 0.9, 1.5, 0.6),
-                human_finger("middle", 0.9, 1.5, 0.6),
-                human_finger("ring", 0.9, 1.5, 0.6),
-                human_finger("little", 0.9, 1.5, 0.6),
-                vec![
-                    ("thumb_cmc_abd", 0.3),
-                    ("thumb_cmc_flex", 0.3),
-                    ("thumb_mcp_flex", 0.2),
-                    ("thumb_ip_flex", 0.2),
-                ],
-            ]
-            .concat(),
-            targets: vec![
-                human_palm(0.0, 0.065, [-0.125, 0.0, 0.008]),
-                human_phalanx("index_middle", 0.0085, 0.0135, [-0.099, 0.0, 0.027]),
-                human_phalanx("middle_middle", 0.0085, 0.0155, [-0.099, 0.0, 0.008]),
-                human_pad("thumb_tip", [-0.1, 0.0, 0.05]),
-            ],
-            open: vec![("middle_pip_flex", -0.5)],
-            approach: [0.0, -1.0, 0.2],
-            slide: [0.0, 0.0, 1.0],
-            turn_rad: 0.0,
-            preshape_q: None,
-            kinematic_open: false,
-        },
+        ObjectKind::Cube => human_cube(),
+        ObjectKind::FryingPan => human_frying_pan(),
+        ObjectKind::Mug => human_mug(),
+        ObjectKind::Teapot => human_teapot(),
         _ => return None,
     };
     Some(t)
 }
 
+/// The four fingers of the human hand, thumb aside.
+const HUMAN_FINGERS: [&str; 4] = ["index", "middle", "ring", "little"];
+
+/// The five-finger cube grasp (see the module docs).
+fn human_cube() -> GraspTemplate {
+    GraspTemplate {
+        palm_normal: [0.0, 0.0, -1.0],
+        fingers: [1.0, 0.0, 0.0],
+        preshape: [
+            human_finger("index", 0.8, 0.7, 0.4),
+            human_finger("middle", 0.8, 0.7, 0.4),
+            human_finger("ring", 0.6, 0.6, 0.3),
+            human_finger("little", 0.6, 0.6, 0.3),
+            vec![
+                ("thumb_cmc_abd", 0.6),
+                ("thumb_cmc_flex", 0.3),
+                ("thumb_mcp_flex", 0.2),
+                ("thumb_ip_flex", 0.2),
+            ],
+        ]
+        .concat(),
+        targets: vec![
+            human_pad("thumb_tip", [-0.04, 0.0, 0.01]),
+            human_pad("index_tip", [0.04, 0.013, 0.01]),
+            human_pad("middle_tip", [0.04, -0.011, 0.008]),
+        ],
+        open: [
+            human_open(&HUMAN_FINGERS, 0.5),
+            vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
+        ]
+        .concat(),
+        approach: [-0.5, 0.0, 1.0],
+        slide: [0.0, 0.0, 1.0],
+        turn_rad: 0.25,
+        preshape_q: None,
+        kinematic_open: false,
+    }
+}
+
+/// The five-finger frying pan grasp (see the module docs).
+fn human_frying_pan() -> GraspTemplate {
+    GraspTemplate {
+        palm_normal: [0.0, 0.0, -1.0],
+        fingers: [0.0, 1.0, 0.0],
+        preshape: [
+            human_finger("index", 1.0, 1.3, 0.6),
+            human_finger("middle", 1.0, 1.3, 0.6),
+            human_finger("ring", 1.0, 1.3, 0.6),
+            human_finger("little", 1.0, 1.3, 0.6),
+            vec![("thumb_cmc_abd", 0.2), ("thumb_cmc_flex", 0.2)],
+        ]
+        .concat(),
+        targets: vec![
+            human_palm(0.0, 0.065, [0.245, 0.0, 0.08]),
+            human_pad("thumb_tip", [0.175, 0.0, 0.08]),
+            human_pad("index_tip", [0.205, -0.004, -0.02]),
+            human_pad("middle_tip", [0.228, -0.004, -0.02]),
+            human_pad("ring_tip", [0.25, -0.004, -0.02]),
+            human_pad("little_tip", [0.27, -0.004, -0.02]),
+        ],
+        open: [
+            human_open(&HUMAN_FINGERS, 0.9),
+            vec![("thumb_mcp_flex", -0.2), ("thumb_ip_flex", -0.3)],
+        ]
+        .concat(),
+        approach: [0.0, 0.3, 1.0],
+        slide: [1.0, 0.0, 0.0],
+        turn_rad: 0.25,
+        preshape_q: None,
+        kinematic_open: false,
+    }
+}
+
+/// The five-finger mug grasp (see the module docs).
+fn human_mug() -> GraspTemplate {
+    GraspTemplate {
+        palm_normal: [0.0, 0.0, -1.0],
+        fingers: [0.0, 1.0, 0.0],
+        preshape: [
+            human_finger("index", 0.8, 0.7, 0.4),
+            human_finger("middle", 0.8, 0.7, 0.4),
+            human_finger("ring", 0.8, 0.7, 0.4),
+            human_finger("little", 1.3, 1.4, 0.9),
+            vec![
+                ("thumb_cmc_abd", 0.6),
+                ("thumb_cmc_flex", 0.3),
+                ("thumb_mcp_flex", 0.2),
+                ("thumb_ip_flex", 0.2),
+            ],
+        ]
+        .concat(),
+        targets: vec![
+            human_pad("thumb_tip", [0.0, -0.05, 0.032]),
+            human_pad("index_tip", [-0.015, 0.05, 0.034]),
+            human_pad("middle_tip", [0.01, 0.05, 0.03]),
+            human_pad("ring_tip", [0.03, 0.04, 0.026]),
+        ],
+        open: [
+            human_open(&HUMAN_FINGERS, 0.5),
+            vec![("thumb_cmc_flex", -0.3), ("thumb_cmc_abd", -0.1)],
+        ]
+        .concat(),
+        approach: [0.0, -0.5, 1.0],
+        slide: [0.0, 0.0, 1.0],
+        turn_rad: 0.25,
+        preshape_q: None,
+        kinematic_open: false,
+    }
+}
+
+/// Hook grasp through the handle loop: the palm on the outer face of the handle's
+/// outer bar, index and middle through the opening with their middle phalanges on the
+/// bar's inner face, the thumb on top. The hand slides in and out along `+y` (slightly
+/// from above), with the middle finger's middle phalanx opened so it clears the bar,
+/// and without the relaxed turn, which would sweep the fingers through the bar.
+fn human_teapot() -> GraspTemplate {
+    GraspTemplate {
+        palm_normal: [1.0, 0.0, 0.0],
+        fingers: [0.0, -1.0, 0.0],
+        preshape: [
+            human_finger("index", 0.9, 1.5, 0.6),
+            human_finger("middle", 0.9, 1.5, 0.6),
+            human_finger("ring", 0.9, 1.5, 0.6),
+            human_finger("little", 0.9, 1.5, 0.6),
+            vec![
+                ("thumb_cmc_abd", 0.3),
+                ("thumb_cmc_flex", 0.3),
+                ("thumb_mcp_flex", 0.2),
+                ("thumb_ip_flex", 0.2),
+            ],
+        ]
+        .concat(),
+        targets: vec![
+            human_palm(0.0, 0.065, [-0.125, 0.0, 0.008]),
+            human_phalanx("index_middle", 0.0085, 0.0135, [-0.099, 0.0, 0.027]),
+            human_phalanx("middle_middle", 0.0085, 0.0155, [-0.099, 0.0, 0.008]),
+            human_pad("thumb_tip", [-0.1, 0.0, 0.05]),
+        ],
+        open: vec![("middle_pip_flex", -0.5)],
+        approach: [0.0, -1.0, 0.2],
+        slide: [0.0, 0.0, 1.0],
+        turn_rad: 0.0,
+        preshape_q: None,
+        kinematic_open: false,
+    }
+}
 fn allegro(object: ObjectKind) -> Option<GraspTemplate> {
     let curl = |f: &'static str, a: f64, b: f64, c: f64| -> Vec<(&'static str, f64)> {
         let names: [&'static str; 3] = match f {
