@@ -13,7 +13,7 @@
 //! # Layers
 //!
 //! The modules read bottom-up: each imports only modules on the lines above its own (its
-//! unit tests may use any module for their fixtures). The integration test `layers` checks
+//! unit tests may use any module for their fixtures). The integration test `structure` checks
 //! this list against the sources, so it is the order the code has.
 //!
 //! 1. [`error`]: the error type, naming the file, the field and what was expected.

@@ -26,14 +26,17 @@ use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::spec::{BoxJson, FactorDistribution, PlaceJson, PrimitiveShape, Range, Spec};
+use super::spec::{
+    BoxJson, FactorDistribution, PlaceJson, PrimitiveShape, PrimitivesJson, Range, RetimeJson,
+    Spec, WaypointsJson,
+};
 use crate::model::PushoutMode;
 use crate::model::config::{AxisAngleJson, CONFIG_FORMAT, ConfigFile, WaypointJson};
 use crate::model::scene::{
     SCENE_FORMAT, SceneFile, SceneItem, SceneItemJson, ScenePoseJson, ShapeJson,
 };
 use crate::model::{Demo, Role, Scene};
-use crate::warp::barrier::{Barrier, item_hull_points};
+use crate::warp::barrier::Barrier;
 use crate::{Error, Limits, Result};
 
 /// The level top face of a support (a box or a cylinder whose axis is vertical).
@@ -209,7 +212,7 @@ impl Context {
 }
 
 fn prepare(item: &SceneItem, radius: f64, scene: &Path, limits: &Limits) -> Result<Barrier> {
-    let pts = item_hull_points(item, limits)?;
+    let pts = item.collision_shape(scene, limits)?.hull_points();
     Barrier::from_points(&item.name, &pts, radius).ok_or_else(|| {
         Error::invalid(
             scene,
@@ -303,56 +306,15 @@ pub fn sample(spec: &Spec, ctx: &Context, seed: u64, index: u64) -> Sample {
     let mut rng = ChaCha8Rng::seed_from_u64(super::variation_seed(seed, index));
     let f = &spec.file;
     let mut rejection: Option<Rejection> = None;
-    let mut reject = |reason: &'static str, detail: String| {
-        if rejection.is_none() {
-            rejection = Some(Rejection { reason, detail });
-        }
-    };
     let (c0, c1) = (ctx.c0, ctx.c1);
 
     // Start and end.
-    let mut place = |which: &str, p: &Option<PlaceJson>, rest: Option<f64>| {
-        let p = p.as_ref()?;
-        let (point, ok) = match (&p.support, &p.bbox) {
-            (Some(name), _) => {
-                let item = ctx.scene.item(name).expect("checked by check_scene");
-                let face = top_face(item).expect("checked by check_scene");
-                let (lo, hi) = match &p.region {
-                    Some(r) => (r.min, r.max),
-                    None => {
-                        // The face shrunk by the margin (a square inside a disc).
-                        let shrink = if face.disc {
-                            std::f64::consts::FRAC_1_SQRT_2
-                        } else {
-                            1.0
-                        };
-                        let ex = ((face.half[0] - p.margin_m) * shrink).max(0.0);
-                        let ey = ((face.half[1] - p.margin_m) * shrink).max(0.0);
-                        let c = face.pose.translation.vector;
-                        ([c.x - ex, c.y - ey], [c.x + ex, c.y + ey])
-                    }
-                };
-                let x = uniform(&mut rng, [lo[0], hi[0]]);
-                let y = uniform(&mut rng, [lo[1], hi[1]]);
-                let point = Vector3::new(x, y, face.z + rest.unwrap_or(0.0));
-                (point, face.contains_xy(&point, p.margin_m))
-            }
-            (None, Some(b)) => {
-                let point = uniform_box(&mut rng, b);
-                let ok = support_under(&ctx.scene, &point, p.margin_m).is_some_and(|(_, top)| {
-                    (point.z - top - rest.unwrap_or(0.0)).abs() <= p.tolerance_m
-                });
-                (point, ok)
-            }
-            (None, None) => unreachable!("checked by Spec::from_file"),
-        };
-        Some((point, ok, which.to_string()))
-    };
-    let start = place("start", &f.start, ctx.rest_start);
-    let end = place("end", &f.end, ctx.rest_end);
+    let start = place(&mut rng, ctx, "start", &f.start, ctx.rest_start);
+    let end = place(&mut rng, ctx, "end", &f.end, ctx.rest_end);
     for (p, key) in [(&start, "start_off_support"), (&end, "end_off_support")] {
         if let Some((q, false, which)) = p {
             reject(
+                &mut rejection,
                 key,
                 format!(
                     "{which} ({:.3}, {:.3}, {:.3}) does not rest on a support",
@@ -368,61 +330,13 @@ pub fn sample(spec: &Spec, ctx: &Context, seed: u64, index: u64) -> Sample {
     let (d0, d1) = (s0 - ctx.positions[c0], s1 - ctx.positions[c1]);
 
     // Waypoints: input frames, positions, rotations.
-    let mut ts: Vec<usize> = Vec::new();
-    let mut positions: Vec<Vector3<f64>> = Vec::new();
-    let mut rotations: Vec<Option<AxisAngleJson>> = Vec::new();
-    if let Some(w) = &f.waypoints {
-        let k = uniform_int(&mut rng, w.count);
-        let spacing = (c1 - c0) as f64 / (k + 1) as f64;
-        for j in 0..k {
-            let u = uniform(&mut rng, [-1.0, 1.0]);
-            let t = c0 as f64 + spacing * (j + 1) as f64 + w.t_jitter * spacing / 2.0 * u;
-            let lo = ts.last().map_or(c0 + 1, |p| p + 1);
-            let hi = c1 - (k - j);
-            ts.push((t.round() as usize).clamp(lo, hi));
-        }
-        for &t in &ts {
-            let p = match (&w.position.offset, &w.position.bbox) {
-                (Some(o), _) => {
-                    let lambda = (t - c0) as f64 / (c1 - c0) as f64;
-                    ctx.positions[t] + (1.0 - lambda) * d0 + lambda * d1 + uniform_box(&mut rng, o)
-                }
-                (None, Some(b)) => uniform_box(&mut rng, b),
-                (None, None) => unreachable!("checked by Spec::from_file"),
-            };
-            positions.push(p);
-            rotations.push(w.rotation.as_ref().map(|r| {
-                let a = uniform_int(&mut rng, [0, r.axes.len() as u32 - 1]);
-                AxisAngleJson {
-                    axis: r.axes[a],
-                    angle: uniform(&mut rng, r.angle_rad),
-                }
-            }));
-        }
-    }
+    let (ts, positions, rotations) = match &f.waypoints {
+        Some(w) => waypoints(&mut rng, w, ctx, d0, d1),
+        None => (Vec::new(), Vec::new(), Vec::new()),
+    };
 
     // Retiming: one factor per segment between anchors.
-    let anchors_t: Vec<usize> = std::iter::once(c0)
-        .chain(ts.iter().copied())
-        .chain(std::iter::once(c1))
-        .collect();
-    let factors: Vec<f64> = (0..anchors_t.len() - 1)
-        .map(|_| {
-            f.retime.as_ref().map_or(1.0, |r| match r.distribution {
-                FactorDistribution::Uniform => uniform(&mut rng, r.duration_factor),
-                FactorDistribution::LogUniform => {
-                    let [lo, hi] = r.duration_factor;
-                    uniform(&mut rng, [lo.ln(), hi.ln()]).exp()
-                }
-            })
-        })
-        .collect();
-    let mut t_new = Vec::with_capacity(anchors_t.len());
-    t_new.push(c0);
-    for (j, w) in anchors_t.windows(2).enumerate() {
-        let d = ((w[1] - w[0]) as f64 * factors[j]).round().max(1.0) as usize;
-        t_new.push(t_new[j] + d);
-    }
+    let (factors, t_new) = retime(&mut rng, &f.retime, c0, c1, &ts);
     let threshold = f.threshold_mm.map(|r| uniform(&mut rng, r));
 
     // Barriers.
@@ -435,107 +349,14 @@ pub fn sample(spec: &Spec, ctx: &Context, seed: u64, index: u64) -> Sample {
         }
     }
     let id = super::sample_id(index);
-    let mut primitives = Vec::new();
-    if let Some(p) = &b.primitives {
-        let n = uniform_int(&mut rng, p.count);
-        for m in 0..n {
-            let along = uniform(&mut rng, p.between);
-            let offset = p
-                .offset
-                .as_ref()
-                .map_or(Vector3::zeros(), |o| uniform_box(&mut rng, o));
-            let yaw = p.yaw_rad.map_or(0.0, |y| uniform(&mut rng, y));
-            let (shape, height) = match p.shape {
-                PrimitiveShape::Box => {
-                    let s = uniform_box(&mut rng, p.size.as_ref().expect("checked"));
-                    (
-                        ShapeJson::Box {
-                            size: [s.x, s.y, s.z],
-                        },
-                        s.z,
-                    )
-                }
-                PrimitiveShape::Cylinder => {
-                    let radius = uniform(&mut rng, p.radius_m.expect("checked"));
-                    let length = uniform(&mut rng, p.length_m.expect("checked"));
-                    (ShapeJson::Cylinder { radius, length }, length)
-                }
-            };
-            let mut centre = s0 + along * (s1 - s0) + offset;
-            if p.on_support {
-                match support_under(&ctx.scene, &centre, 0.0) {
-                    Some((_, top)) => centre.z = top + height / 2.0,
-                    None => reject(
-                        "barrier_off_support",
-                        format!(
-                            "primitive barrier {m} at ({:.3}, {:.3}) has no support below",
-                            centre.x, centre.y
-                        ),
-                    ),
-                }
-            }
-            let q = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw);
-            primitives.push(SceneItemJson {
-                name: format!("augment_barrier_{m}"),
-                role: Role::Barrier,
-                pose: ScenePoseJson {
-                    position: [centre.x, centre.y, centre.z],
-                    orientation: [q.w, q.i, q.j, q.k],
-                },
-                shape,
-            });
-        }
-    }
+    let primitives = match &b.primitives {
+        Some(p) => primitives(&mut rng, p, ctx, s0, s1, &mut rejection),
+        None => Vec::new(),
+    };
 
     // Feasibility: no anchor inside an inflated barrier.
-    let mut anchors: Vec<(String, Vector3<f64>)> = vec![("start".into(), s0)];
-    anchors.extend(
-        positions
-            .iter()
-            .enumerate()
-            .map(|(j, p)| (format!("waypoints[{j}]"), *p)),
-    );
-    anchors.push(("end".into(), s1));
-    let mut check = |name: &str, barrier: &Barrier| {
-        for (what, p) in &anchors {
-            if barrier.contains(&Point3::from(*p), ctx.pushout) {
-                let reason = match what.as_str() {
-                    "start" => "start_in_barrier",
-                    "end" => "end_in_barrier",
-                    _ => "waypoint_in_barrier",
-                };
-                reject(
-                    reason,
-                    format!("{what} is inside the inflated barrier {name:?}"),
-                );
-            }
-        }
-    };
-    for name in &barrier_names {
-        if let Some(barrier) = ctx.barrier(name) {
-            check(name, barrier);
-        }
-    }
-    for item in &primitives {
-        let validated = SceneItem {
-            name: item.name.clone(),
-            role: item.role,
-            pose: Isometry3::from_parts(
-                Translation3::from(Vector3::from(item.pose.position)),
-                UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-                    item.pose.orientation[0],
-                    item.pose.orientation[1],
-                    item.pose.orientation[2],
-                    item.pose.orientation[3],
-                )),
-            ),
-            shape: item.shape.clone(),
-        };
-        let pts = item_hull_points(&validated, &Limits::default()).unwrap_or_default();
-        if let Some(barrier) = Barrier::from_points(&item.name, &pts, ctx.radius) {
-            check(&item.name, &barrier);
-        }
-    }
+    let anchors = anchors(s0, &positions, s1);
+    check_barriers(ctx, &anchors, &barrier_names, &primitives, &mut rejection);
     barrier_names.extend(primitives.iter().map(|p| p.name.clone()));
 
     let mut params = f.params.clone();
@@ -577,5 +398,270 @@ pub fn sample(spec: &Spec, ctx: &Context, seed: u64, index: u64) -> Sample {
         duration_factors: factors,
         anchors_t_new: t_new,
         rejection,
+    }
+}
+
+/// Records a rejection unless an earlier check already rejected the sample (the first
+/// reason is the one counted).
+fn reject(rejection: &mut Option<Rejection>, reason: &'static str, detail: String) {
+    if rejection.is_none() {
+        *rejection = Some(Rejection { reason, detail });
+    }
+}
+
+/// Draws the start or end (`which`) placed by `p`: the point, whether it rests on a
+/// support, and `which`. `None` when the spec does not move it.
+fn place(
+    rng: &mut ChaCha8Rng,
+    ctx: &Context,
+    which: &str,
+    p: &Option<PlaceJson>,
+    rest: Option<f64>,
+) -> Option<(Vector3<f64>, bool, String)> {
+    let p = p.as_ref()?;
+    let (point, ok) = match (&p.support, &p.bbox) {
+        (Some(name), _) => {
+            let item = ctx.scene.item(name).expect("checked by check_scene");
+            let face = top_face(item).expect("checked by check_scene");
+            let (lo, hi) = match &p.region {
+                Some(r) => (r.min, r.max),
+                None => {
+                    // The face shrunk by the margin (a square inside a disc).
+                    let shrink = if face.disc {
+                        std::f64::consts::FRAC_1_SQRT_2
+                    } else {
+                        1.0
+                    };
+                    let ex = ((face.half[0] - p.margin_m) * shrink).max(0.0);
+                    let ey = ((face.half[1] - p.margin_m) * shrink).max(0.0);
+                    let c = face.pose.translation.vector;
+                    ([c.x - ex, c.y - ey], [c.x + ex, c.y + ey])
+                }
+            };
+            let x = uniform(rng, [lo[0], hi[0]]);
+            let y = uniform(rng, [lo[1], hi[1]]);
+            let point = Vector3::new(x, y, face.z + rest.unwrap_or(0.0));
+            (point, face.contains_xy(&point, p.margin_m))
+        }
+        (None, Some(b)) => {
+            let point = uniform_box(rng, b);
+            let ok = support_under(&ctx.scene, &point, p.margin_m).is_some_and(|(_, top)| {
+                (point.z - top - rest.unwrap_or(0.0)).abs() <= p.tolerance_m
+            });
+            (point, ok)
+        }
+        (None, None) => unreachable!("checked by Spec::from_file"),
+    };
+    Some((point, ok, which.to_string()))
+}
+
+/// Draws the waypoints: their input frames, positions and rotations. `d0`, `d1` are the
+/// start and end displacements.
+fn waypoints(
+    rng: &mut ChaCha8Rng,
+    w: &WaypointsJson,
+    ctx: &Context,
+    d0: Vector3<f64>,
+    d1: Vector3<f64>,
+) -> (Vec<usize>, Vec<Vector3<f64>>, Vec<Option<AxisAngleJson>>) {
+    let (c0, c1) = (ctx.c0, ctx.c1);
+    let mut ts: Vec<usize> = Vec::new();
+    let mut positions: Vec<Vector3<f64>> = Vec::new();
+    let mut rotations: Vec<Option<AxisAngleJson>> = Vec::new();
+    let k = uniform_int(rng, w.count);
+    let spacing = (c1 - c0) as f64 / (k + 1) as f64;
+    for j in 0..k {
+        let u = uniform(rng, [-1.0, 1.0]);
+        let t = c0 as f64 + spacing * (j + 1) as f64 + w.t_jitter * spacing / 2.0 * u;
+        let lo = ts.last().map_or(c0 + 1, |p| p + 1);
+        let hi = c1 - (k - j);
+        ts.push((t.round() as usize).clamp(lo, hi));
+    }
+    for &t in &ts {
+        let p = match (&w.position.offset, &w.position.bbox) {
+            (Some(o), _) => {
+                let lambda = (t - c0) as f64 / (c1 - c0) as f64;
+                ctx.positions[t] + (1.0 - lambda) * d0 + lambda * d1 + uniform_box(rng, o)
+            }
+            (None, Some(b)) => uniform_box(rng, b),
+            (None, None) => unreachable!("checked by Spec::from_file"),
+        };
+        positions.push(p);
+        rotations.push(w.rotation.as_ref().map(|r| {
+            let a = uniform_int(rng, [0, r.axes.len() as u32 - 1]);
+            AxisAngleJson {
+                axis: r.axes[a],
+                angle: uniform(rng, r.angle_rad),
+            }
+        }));
+    }
+    (ts, positions, rotations)
+}
+
+/// Draws the duration factor of each segment between the anchors (`c0`, the waypoint
+/// frames `ts`, `c1`) and returns the factors and the anchors' output frames.
+fn retime(
+    rng: &mut ChaCha8Rng,
+    retime: &Option<RetimeJson>,
+    c0: usize,
+    c1: usize,
+    ts: &[usize],
+) -> (Vec<f64>, Vec<usize>) {
+    let anchors_t: Vec<usize> = std::iter::once(c0)
+        .chain(ts.iter().copied())
+        .chain(std::iter::once(c1))
+        .collect();
+    let factors: Vec<f64> = (0..anchors_t.len() - 1)
+        .map(|_| {
+            retime.as_ref().map_or(1.0, |r| match r.distribution {
+                FactorDistribution::Uniform => uniform(rng, r.duration_factor),
+                FactorDistribution::LogUniform => {
+                    let [lo, hi] = r.duration_factor;
+                    uniform(rng, [lo.ln(), hi.ln()]).exp()
+                }
+            })
+        })
+        .collect();
+    let mut t_new = Vec::with_capacity(anchors_t.len());
+    t_new.push(c0);
+    for (j, w) in anchors_t.windows(2).enumerate() {
+        let d = ((w[1] - w[0]) as f64 * factors[j]).round().max(1.0) as usize;
+        t_new.push(t_new[j] + d);
+    }
+    (factors, t_new)
+}
+
+/// Draws the primitive barriers between `s0` and `s1`, each standing on the support below
+/// when `p.on_support` (rejecting the sample when there is none).
+fn primitives(
+    rng: &mut ChaCha8Rng,
+    p: &PrimitivesJson,
+    ctx: &Context,
+    s0: Vector3<f64>,
+    s1: Vector3<f64>,
+    rejection: &mut Option<Rejection>,
+) -> Vec<SceneItemJson> {
+    let mut primitives = Vec::new();
+    let n = uniform_int(rng, p.count);
+    for m in 0..n {
+        let along = uniform(rng, p.between);
+        let offset = p
+            .offset
+            .as_ref()
+            .map_or(Vector3::zeros(), |o| uniform_box(rng, o));
+        let yaw = p.yaw_rad.map_or(0.0, |y| uniform(rng, y));
+        let (shape, height) = match p.shape {
+            PrimitiveShape::Box => {
+                let s = uniform_box(rng, p.size.as_ref().expect("checked"));
+                (
+                    ShapeJson::Box {
+                        size: [s.x, s.y, s.z],
+                    },
+                    s.z,
+                )
+            }
+            PrimitiveShape::Cylinder => {
+                let radius = uniform(rng, p.radius_m.expect("checked"));
+                let length = uniform(rng, p.length_m.expect("checked"));
+                (ShapeJson::Cylinder { radius, length }, length)
+            }
+        };
+        let mut centre = s0 + along * (s1 - s0) + offset;
+        if p.on_support {
+            match support_under(&ctx.scene, &centre, 0.0) {
+                Some((_, top)) => centre.z = top + height / 2.0,
+                None => reject(
+                    rejection,
+                    "barrier_off_support",
+                    format!(
+                        "primitive barrier {m} at ({:.3}, {:.3}) has no support below",
+                        centre.x, centre.y
+                    ),
+                ),
+            }
+        }
+        let q = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw);
+        primitives.push(SceneItemJson {
+            name: format!("augment_barrier_{m}"),
+            role: Role::Barrier,
+            pose: ScenePoseJson {
+                position: [centre.x, centre.y, centre.z],
+                orientation: [q.w, q.i, q.j, q.k],
+            },
+            shape,
+        });
+    }
+    primitives
+}
+
+/// The anchors of a sample, named as in the rejections: start, waypoints, end.
+fn anchors(
+    s0: Vector3<f64>,
+    positions: &[Vector3<f64>],
+    s1: Vector3<f64>,
+) -> Vec<(String, Vector3<f64>)> {
+    let mut anchors: Vec<(String, Vector3<f64>)> = vec![("start".into(), s0)];
+    anchors.extend(
+        positions
+            .iter()
+            .enumerate()
+            .map(|(j, p)| (format!("waypoints[{j}]"), *p)),
+    );
+    anchors.push(("end".into(), s1));
+    anchors
+}
+
+/// Rejects the sample when an anchor lies inside an inflated barrier: the scene barriers
+/// `barrier_names`, then the primitives.
+fn check_barriers(
+    ctx: &Context,
+    anchors: &[(String, Vector3<f64>)],
+    barrier_names: &[String],
+    primitives: &[SceneItemJson],
+    rejection: &mut Option<Rejection>,
+) {
+    let mut check = |name: &str, barrier: &Barrier| {
+        for (what, p) in anchors {
+            if barrier.contains(&Point3::from(*p), ctx.pushout) {
+                let reason = match what.as_str() {
+                    "start" => "start_in_barrier",
+                    "end" => "end_in_barrier",
+                    _ => "waypoint_in_barrier",
+                };
+                reject(
+                    rejection,
+                    reason,
+                    format!("{what} is inside the inflated barrier {name:?}"),
+                );
+            }
+        }
+    };
+    for name in barrier_names {
+        if let Some(barrier) = ctx.barrier(name) {
+            check(name, barrier);
+        }
+    }
+    for item in primitives {
+        let validated = SceneItem {
+            name: item.name.clone(),
+            role: item.role,
+            pose: Isometry3::from_parts(
+                Translation3::from(Vector3::from(item.pose.position)),
+                UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                    item.pose.orientation[0],
+                    item.pose.orientation[1],
+                    item.pose.orientation[2],
+                    item.pose.orientation[3],
+                )),
+            ),
+            shape: item.shape.clone(),
+        };
+        let pts = validated
+            .collision_shape(Path::new("scene"), &Limits::default())
+            .map(|shape| shape.hull_points())
+            .unwrap_or_default();
+        if let Some(barrier) = Barrier::from_points(&item.name, &pts, ctx.radius) {
+            check(&item.name, &barrier);
+        }
     }
 }

@@ -127,6 +127,53 @@ impl CollisionShape {
         })
     }
 
+    /// Points whose convex hull encloses the shape, in the frame `origin` is given in (a
+    /// scene item's: the world): a box's corners; a sphere's or a capsule's 256 spiral points
+    /// on a ball inflated so the hull of the samples contains the true surface; a cylinder's
+    /// two rings of 64 points on the circumscribed polygon; a mesh's vertices. The barrier
+    /// push-out inflates the hull of these points.
+    pub fn hull_points(&self) -> Vec<Point3<f64>> {
+        let local: Vec<Point3<f64>> = match &self.kind {
+            ShapeKind::Box { size } => {
+                let h = size / 2.0;
+                let mut v = Vec::with_capacity(8);
+                for sx in [-1.0, 1.0] {
+                    for sy in [-1.0, 1.0] {
+                        for sz in [-1.0, 1.0] {
+                            v.push(Point3::new(sx * h.x, sy * h.y, sz * h.z));
+                        }
+                    }
+                }
+                v
+            }
+            ShapeKind::Sphere { radius } => spiral_points(*radius / SAGITTA, 256),
+            ShapeKind::Capsule { radius, length } => {
+                let mut v = spiral_points(*radius / SAGITTA, 256);
+                for p in &mut v {
+                    p.z += if p.z >= 0.0 {
+                        length / 2.0
+                    } else {
+                        -length / 2.0
+                    };
+                }
+                v
+            }
+            ShapeKind::Cylinder { radius, length } => {
+                let mut v = Vec::with_capacity(128);
+                for i in 0..64 {
+                    let a = i as f64 * TAU / 64.0;
+                    let (s, c) = a.sin_cos();
+                    let r = radius / (PI / 64.0).cos();
+                    v.push(Point3::new(r * c, r * s, -length / 2.0));
+                    v.push(Point3::new(r * c, r * s, length / 2.0));
+                }
+                v
+            }
+            ShapeKind::Mesh { mesh, .. } => mesh.vertices.clone(),
+        };
+        local.into_iter().map(|p| self.origin * p).collect()
+    }
+
     /// As [`CollisionShape::new`] for a hand link: a mesh becomes its convex parts (see the
     /// module docs); the kind keeps the file and scale, with the parts' hulls as its mesh.
     /// `None` when no part of the mesh has a volume.
@@ -494,6 +541,24 @@ fn thin_mesh_samples(mesh: &Mesh, total_area: f64, h: f64, out: &mut Vec<Sample>
             try_keep(a + (b - a) * u + (c - a) * v, n, out);
         }
     }
+}
+
+/// Inflation of sampled round shapes so the hull of the samples encloses the true surface.
+const SAGITTA: f64 = 0.985;
+
+/// `n` points of a Fibonacci spiral on the sphere of radius `r` about the origin, for hulls
+/// (the same spiral as [`fibonacci_sphere`], computed in the order the barrier hulls have
+/// always used, so their points stay bit for bit the same).
+fn spiral_points(r: f64, n: usize) -> Vec<Point3<f64>> {
+    let golden = PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let rr = (1.0 - z * z).sqrt();
+            let th = golden * i as f64;
+            Point3::new(r * rr * th.cos(), r * rr * th.sin(), r * z)
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -237,15 +237,29 @@ impl Scene {
 }
 
 impl Scene {
-    /// An item as a collision shape in the world frame (the same representation as a robot
-    /// link's collision geometry, so physics and the IK barrier term treat both alike).
+    /// An item as a collision shape in the world frame (see [`SceneItem::collision_shape`]).
     pub fn collision_shape(
         &self,
         item: &SceneItem,
         limits: &Limits,
     ) -> Result<crate::geometry::shape::CollisionShape> {
+        item.collision_shape(&self.source, limits)
+    }
+}
+
+impl SceneItem {
+    /// The item as a collision shape in the world frame, the same representation as a robot
+    /// link's collision geometry: the one builder of a scene item's shape, so the physics
+    /// replay, the IK's barrier term and the push-out's hulls
+    /// ([`CollisionShape::hull_points`](crate::geometry::shape::CollisionShape::hull_points))
+    /// see the same geometry. Errors name `scene`, the file the item is from.
+    pub fn collision_shape(
+        &self,
+        scene: &Path,
+        limits: &Limits,
+    ) -> Result<crate::geometry::shape::CollisionShape> {
         use crate::geometry::shape::ShapeKind;
-        let kind = match &item.shape {
+        let kind = match &self.shape {
             ShapeJson::Box { size } => ShapeKind::Box {
                 size: nalgebra::Vector3::from(*size),
             },
@@ -268,10 +282,10 @@ impl Scene {
                 }
             }
         };
-        crate::geometry::shape::CollisionShape::new(kind, item.pose).ok_or_else(|| {
+        crate::geometry::shape::CollisionShape::new(kind, self.pose).ok_or_else(|| {
             Error::invalid(
-                &self.source,
-                format!("items[{:?}].shape", item.name),
+                scene,
+                format!("items[{:?}].shape", self.name),
                 "the mesh has no triangles; expected a closed triangle mesh",
             )
         })

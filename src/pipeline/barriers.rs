@@ -1,32 +1,34 @@
-//! The barriers a config names, built from the scene: as collision shapes for the IK's
-//! barrier term, and as inflated hulls for the object's and the hand's push-out.
+//! The barriers a config names, built once per run from the scene by the one builder of a
+//! scene item's shape ([`Scene::collision_shape`], which the physics replay uses too): the
+//! shapes for the IK's barrier term, their hulls inflated for the object's and the hand's
+//! push-out.
 
 use crate::geometry::shape::CollisionShape;
 use crate::hand::{HandPath, pushout};
 use crate::model::{Scene, WarpConfig};
 use crate::warp::ObjectWarp;
-use crate::warp::barrier::{Barrier, item_hull_points};
+use crate::warp::barrier::Barrier;
 use crate::{Error, Limits, Result};
 
-/// Stage 4b: the barriers prepared with the hand radius, and the hand push-out outside the
+/// Stage 4b: the barriers inflated by the hand radius, and the hand push-out outside the
 /// contact segment ([`pushout`]).
 pub(super) fn hand_pushout(
     config: &WarpConfig,
     scene: &Scene,
+    shapes: &[CollisionShape],
     object: &ObjectWarp,
     hand: HandPath,
     params: &pushout::Params,
-    limits: &Limits,
 ) -> Result<(HandPath, pushout::Stats)> {
     let barriers = if params.radius_m > 0.0 {
-        prepare(config, scene, params.radius_m, limits)?
+        pushout_hulls(config, scene, shapes, params.radius_m)?
     } else {
         Vec::new()
     };
     Ok(pushout::run(hand, &object.plan, &barriers, params))
 }
 
-/// The barriers a config names, as world-frame collision shapes (the IK barrier term).
+/// The barriers a config names, as world-frame collision shapes, in the config's order.
 pub fn shapes(config: &WarpConfig, scene: &Scene, limits: &Limits) -> Result<Vec<CollisionShape>> {
     config
         .barriers
@@ -37,21 +39,20 @@ pub fn shapes(config: &WarpConfig, scene: &Scene, limits: &Limits) -> Result<Vec
         .collect()
 }
 
-/// The barriers a config names, prepared for the push-out.
-pub fn prepare(
+/// The barriers' hulls inflated by `radius` for the push-out (`shapes` from [`shapes`]).
+pub(super) fn pushout_hulls(
     config: &WarpConfig,
     scene: &Scene,
+    shapes: &[CollisionShape],
     radius: f64,
-    limits: &Limits,
 ) -> Result<Vec<Barrier>> {
     config
         .barriers
         .iter()
+        .zip(shapes)
         .enumerate()
-        .map(|(j, name)| {
-            let item = scene.item(name).expect("checked by check_scene");
-            let pts = item_hull_points(item, limits)?;
-            Barrier::from_points(name, &pts, radius).ok_or_else(|| {
+        .map(|(j, (name, shape))| {
+            Barrier::from_points(name, &shape.hull_points(), radius).ok_or_else(|| {
                 Error::invalid(
                     &scene.source,
                     format!("items[{name:?}]"),

@@ -169,7 +169,8 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let params = StageParams::resolve(config, options)?;
     let plan = stages::plan(inputs, options, &params, &input)?;
     let radius = mesh.bounding_radius();
-    let barriers = barriers::prepare(config, scene, radius, &options.limits)?;
+    let barrier_shapes = barriers::shapes(config, scene, &options.limits)?;
+    let barriers = barriers::pushout_hulls(config, scene, &barrier_shapes, radius)?;
 
     // Stages 1-3: spatial warp, barrier push-out, retiming.
     let object = stages::object(
@@ -189,8 +190,8 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
         HandMethod::Contact => {
             let (hand, ik) = stages::contact_ik(
                 inputs,
-                options,
                 &params,
+                &barrier_shapes,
                 &object,
                 &base,
                 &mut provenance,
@@ -203,10 +204,10 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let (mut hand, hand_push) = barriers::hand_pushout(
         config,
         scene,
+        &barrier_shapes,
         &object,
         hand,
         &params.hand_pushout,
-        &options.limits,
     )?;
     timing.insert("hand_pushout".into(), hand_push.time_s);
     // Stage 5b: no hand pressed deeper into the object than the IK left it.

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use super::{Inputs, Options, StageParams, checks};
 use crate::geometry::ObjectSdf;
+use crate::geometry::shape::CollisionShape;
 use crate::hand::ik;
 use crate::hand::{HandPath, baseline as rigid, guard as hand_guard, smooth};
 use crate::metrics;
@@ -131,8 +132,8 @@ pub(super) fn provenance(inputs: &Inputs, options: &Options, params: &StageParam
 /// inside the contact segment and the fade to the rigid transfer beyond its ends.
 pub(super) fn contact_ik(
     inputs: &Inputs,
-    options: &Options,
     params: &StageParams,
+    shapes: &[CollisionShape],
     object: &ObjectWarp,
     base: &HandPath,
     provenance: &mut Provenance,
@@ -142,10 +143,9 @@ pub(super) fn contact_ik(
         config,
         demo,
         robot,
-        scene,
         mesh,
+        ..
     } = inputs;
-    let shapes = super::barriers::shapes(config, scene, &options.limits)?;
     let object_sdf = crate::geometry::object_sdf(mesh);
     let params = params.ik(config, || {
         crate::model::config::auto_penetration_tolerance_mm(
@@ -162,7 +162,7 @@ pub(super) fn contact_ik(
         demo,
         object,
         base,
-        &shapes,
+        shapes,
         object_sdf.as_deref(),
         &params,
     );

@@ -31,13 +31,11 @@ use rapier3d_f64::parry::shape::ConvexPolyhedron;
 use rapier3d_f64::parry::transformation::try_convex_hull;
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::Mesh;
 use crate::math::convert::{from_point, to_point};
 use crate::model::PushoutMode;
 use crate::model::report::NarrowGap;
-use crate::model::scene::{SceneItem, ShapeJson};
 use crate::warp::plan::WarpPlan;
-use crate::{Error, Limits, Result};
+use crate::{Error, Result};
 
 /// Parameters of the push-out.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -246,68 +244,6 @@ impl Barrier {
             }
         }
     }
-}
-
-/// Points whose convex hull is the item's shape (or encloses it), in the world frame.
-/// Round shapes are sampled finely and pushed out by the chord sagitta, so the hull of the
-/// samples contains the true shape.
-pub fn item_hull_points(item: &SceneItem, limits: &Limits) -> Result<Vec<Point3<f64>>> {
-    let local: Vec<Point3<f64>> = match &item.shape {
-        ShapeJson::Box { size } => {
-            let h = Vector3::from(*size) / 2.0;
-            let mut v = Vec::with_capacity(8);
-            for sx in [-1.0, 1.0] {
-                for sy in [-1.0, 1.0] {
-                    for sz in [-1.0, 1.0] {
-                        v.push(Point3::new(sx * h.x, sy * h.y, sz * h.z));
-                    }
-                }
-            }
-            v
-        }
-        ShapeJson::Sphere { radius } => fibonacci_sphere(*radius / SAGITTA, 256),
-        ShapeJson::Capsule { radius, length } => {
-            let mut v = fibonacci_sphere(*radius / SAGITTA, 256);
-            for p in &mut v {
-                p.z += if p.z >= 0.0 {
-                    length / 2.0
-                } else {
-                    -length / 2.0
-                };
-            }
-            v
-        }
-        ShapeJson::Cylinder { radius, length } => {
-            let mut v = Vec::with_capacity(128);
-            for i in 0..64 {
-                let a = i as f64 * std::f64::consts::TAU / 64.0;
-                let (s, c) = a.sin_cos();
-                let r = radius / (std::f64::consts::PI / 64.0).cos();
-                v.push(Point3::new(r * c, r * s, -length / 2.0));
-                v.push(Point3::new(r * c, r * s, length / 2.0));
-            }
-            v
-        }
-        ShapeJson::Mesh { path, scale } => {
-            Mesh::load(path, Vector3::from(*scale), limits)?.vertices
-        }
-    };
-    Ok(local.into_iter().map(|p| item.pose * p).collect())
-}
-
-/// Inflation of sampled round shapes so the hull of the samples encloses the true surface.
-const SAGITTA: f64 = 0.985;
-
-fn fibonacci_sphere(r: f64, n: usize) -> Vec<Point3<f64>> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let rr = (1.0 - z * z).sqrt();
-            let th = golden * i as f64;
-            Point3::new(r * rr * th.cos(), r * rr * th.sin(), r * z)
-        })
-        .collect()
 }
 
 /// Output of the push-out.

@@ -294,3 +294,100 @@ fn the_scan_sees_imports_and_skips_comments_strings_and_unit_tests() {
         ["model", "error", "geometry", "robot", "warp"]
     );
 }
+
+/// Longest a function in `src/` may be, from its `fn` line to its closing brace.
+const MAX_FUNCTION_LINES: usize = 120;
+
+/// Every function of `code` (comments and literals blanked) as `(name, first line, lines)`.
+fn functions(code: &str) -> Vec<(String, usize, usize)> {
+    let lines: Vec<&str> = code.lines().collect();
+    let mut found = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let Some(at) = line.find("fn ") else {
+            continue;
+        };
+        let before = &line[..at];
+        let is_item = before.split_whitespace().all(|w| {
+            matches!(w, "pub" | "const" | "async" | "unsafe" | "extern") || w.starts_with("pub(")
+        });
+        if !is_item || (at > 0 && ident(line[..at].chars().last().as_ref())) {
+            continue;
+        }
+        let name: String = line[at + 3..]
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        // The body: from the first `{` after the signature to its matching `}`; a `;` first
+        // is a declaration without a body.
+        let mut depth = 0usize;
+        let mut end = None;
+        'scan: for (j, l) in lines.iter().enumerate().skip(i) {
+            for ch in l.chars() {
+                match ch {
+                    ';' if depth == 0 => break 'scan,
+                    '{' => depth += 1,
+                    '}' => {
+                        depth -= 1;
+                        if depth == 0 {
+                            end = Some(j);
+                            break 'scan;
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if let Some(end) = end {
+            found.push((name, i + 1, end - i + 1));
+        }
+    }
+    found
+}
+
+#[test]
+fn no_function_in_src_is_longer_than_the_limit() {
+    let mut files = Vec::new();
+    rust_files(&src(), &mut files);
+    let mut long = Vec::new();
+    let mut counted = 0;
+    for file in &files {
+        let text = std::fs::read_to_string(file).unwrap();
+        for (name, line, len) in functions(&code_only(&text)) {
+            counted += 1;
+            if len > MAX_FUNCTION_LINES {
+                let rel = file.strip_prefix(src()).unwrap();
+                long.push(format!("src/{}:{line} {name}: {len} lines", rel.display()));
+            }
+        }
+    }
+    assert!(
+        counted > 900,
+        "only {counted} functions found: the scan is broken"
+    );
+    assert!(
+        long.is_empty(),
+        "functions over {MAX_FUNCTION_LINES} lines (split them into named steps):\n{}",
+        long.join("\n")
+    );
+}
+
+#[test]
+fn the_function_scan_measures_bodies_and_skips_declarations() {
+    let code = code_only(
+        "pub fn a() {\n    let s = \"}\";\n}\n\
+         fn b(x: u8) -> u8 {\n    if x > 0 { 1 } else { 0 }\n}\n\
+         trait T { fn c(&self); }\n\
+         impl T for u8 {\n    fn c(&self) {}\n}\n\
+         pub(crate) fn d()\nwhere\n    u8: Copy,\n{\n}\n",
+    );
+    let found: Vec<(String, usize, usize)> = functions(&code);
+    assert_eq!(
+        found,
+        [
+            ("a".to_string(), 1, 3),
+            ("b".to_string(), 4, 3),
+            ("c".to_string(), 9, 1),
+            ("d".to_string(), 11, 5),
+        ]
+    );
+}
