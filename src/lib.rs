@@ -28,7 +28,8 @@
 //! 8. [`metrics`]: D_WO, D_C, path length ratio, timewarp discrepancy.
 //! 9. [`hand`]: the hand stages: contact IK, the SE(3) baseline, push-out, smoothing, guard.
 //! 10. [`physics`]: the Rapier replay and its checks.
-//! 11. [`pipeline`]: the stage list of one warp, its report, and `validate`.
+//! 11. [`pipeline`]: the stage list of one warp, every stage's parameters from a config and
+//!     the run's options, its report, and `validate`.
 //! 12. [`output`]: a run's files written as one set.
 //! 13. [`synth`]: demonstrations synthesized for a hand and an object.
 //! 14. [`player`]: the 3D player page of a trajectory.
