@@ -4,7 +4,8 @@
 //! temporary folder beside the output folder, then moved into place, the report last. Into a
 //! new folder the whole temporary folder is renamed at once; into an existing one the old
 //! report goes first (no report = no finished run), then the other files, then the new
-//! report. The report records the SHA-256 of every other file of its set
+//! report. Runs committing into one folder at the same time take turns (a lock on the parent
+//! folder), so the last one's whole set is what stays. The report records the SHA-256 of every other file of its set
 //! ([`Report::outputs`]), and `filter`, `batch` and reruns trust a report only when those
 //! match ([`set_is_complete`]), so a full disk, a kill or two runs into one folder never pass
 //! off a mixed set as a finished run. Temporaries left by killed runs are removed by the next
@@ -129,6 +130,10 @@ pub fn commit_set(dir: &Path, files: Vec<(String, Vec<u8>)>, report: &mut Report
         let _ = std::fs::remove_dir_all(&staging);
         return Err(Error::write(dir, e));
     }
+    // Runs committing into the same folder at the same time take turns (an advisory lock on
+    // the parent folder, held until this function returns), so the folder never ends with one
+    // run's report beside another run's files. Where the file system has no locks, best effort.
+    let _turn = std::fs::File::open(&parent).and_then(|f| f.lock().map(|()| f));
     // A new folder: the whole set at once.
     if !dir.exists() && std::fs::rename(&staging, dir).is_ok() {
         return Ok(());
