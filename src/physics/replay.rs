@@ -17,6 +17,8 @@
 
 use nalgebra::{Isometry3, Translation3};
 
+use serde::Serialize;
+
 use super::world::{GripSample, ReplayWorld};
 use crate::math::rotation::slerp_shortest;
 use crate::model::{Demo, Frame};
@@ -39,6 +41,45 @@ pub struct Trace {
     pub diverged_at: Option<usize>,
     /// The hand's contact forces on the object in the last step before each frame time.
     pub grip: Vec<GripSample>,
+    /// What the steps simulated: counts of contacts and idle steps.
+    pub profile: StepProfile,
+}
+
+/// Where the replay's steps went, for the physics module's profile (not in reports).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StepProfile {
+    /// Steps simulated.
+    pub steps: usize,
+    /// Steps after which the object touched a hand link.
+    pub hand_contact_steps: usize,
+    /// Steps with no hand contact and the object slower than [`IDLE_SPEED_M_S`]: the object
+    /// at rest on its support, where a step changes nothing a check reads.
+    pub idle_steps: usize,
+    /// Hand-object contact manifolds and points, summed over the steps.
+    pub hand_manifolds: usize,
+    pub hand_points: usize,
+    /// Object-support and object-barrier manifolds and points, summed over the steps.
+    pub other_manifolds: usize,
+    pub other_points: usize,
+}
+
+/// Object speed [m/s] below which a step without hand contact counts as idle.
+pub const IDLE_SPEED_M_S: f64 = 1e-3;
+
+impl StepProfile {
+    fn record(&mut self, world: &ReplayWorld) {
+        let c = world.object_contacts();
+        self.steps += 1;
+        self.hand_manifolds += c.hand_manifolds;
+        self.hand_points += c.hand_points;
+        self.other_manifolds += c.other_manifolds;
+        self.other_points += c.other_points;
+        if c.hand_points > 0 {
+            self.hand_contact_steps += 1;
+        } else if world.object_speed() < IDLE_SPEED_M_S {
+            self.idle_steps += 1;
+        }
+    }
 }
 
 /// Steps per frame interval for frame rate `fps` and largest step `max_dt` [s].
@@ -94,6 +135,7 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
             world.drive_hand(&link_poses, &q);
             world.step();
             trace.steps += 1;
+            trace.profile.record(world);
         }
         let pose = world.object_pose();
         let finite = pose.translation.vector.iter().all(|c| c.is_finite())

@@ -201,6 +201,9 @@ pub struct PhysicsReport {
     pub margin: Option<super::Margin>,
     #[serde(skip)]
     pub per_frame: PerFrame,
+    /// Where the nominal replay's steps went (the physics module's profile; not in reports).
+    #[serde(skip)]
+    pub profile: super::replay::StepProfile,
 }
 
 impl PhysicsReport {

@@ -224,6 +224,37 @@ impl ReplayWorld {
         self.world.bodies[self.object].linvel().length()
     }
 
+    /// The object's contacts after the last step, counted for the replay's profile.
+    pub fn object_contacts(&self) -> ObjectContacts {
+        let mut c = ObjectContacts::default();
+        for pair in self.world.contact_pairs_with(self.object_collider) {
+            let other = if pair.collider1 == self.object_collider {
+                pair.collider2
+            } else {
+                pair.collider1
+            };
+            let is_hand = self
+                .world
+                .colliders
+                .get(other)
+                .is_some_and(|c| c.user_data == Tag::Hand as u128);
+            for m in pair.manifolds() {
+                let points = m.points.len();
+                if points == 0 {
+                    continue;
+                }
+                if is_hand {
+                    c.hand_manifolds += 1;
+                    c.hand_points += points;
+                } else {
+                    c.other_manifolds += 1;
+                    c.other_points += points;
+                }
+            }
+        }
+        c
+    }
+
     /// The hand's contact forces on the object in the last step (see [`GripSample`]).
     ///
     /// Rapier keeps each contact point's normal impulse over the step (summed over its
@@ -349,4 +380,14 @@ fn with_object_and_scene(
         object_collider,
         finger_skin_m: params.finger_skin_m,
     }
+}
+
+/// The object's contact manifolds and points after one step: with hand links, and with
+/// supports and barriers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ObjectContacts {
+    pub hand_manifolds: usize,
+    pub hand_points: usize,
+    pub other_manifolds: usize,
+    pub other_points: usize,
 }
