@@ -5,7 +5,6 @@ pub mod baseline;
 pub mod guard;
 pub mod ik;
 pub mod pushout;
-pub mod robustness;
 pub mod smooth;
 
 use nalgebra::Isometry3;

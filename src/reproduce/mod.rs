@@ -19,6 +19,7 @@
 //! 0/50/100 %.
 
 pub mod html;
+pub mod robustness;
 pub mod tables;
 
 use std::path::{Path, PathBuf};
@@ -27,12 +28,12 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::hand::ik::Solver;
-use crate::hand::robustness::{Corruption, corrupt};
 use crate::model::Objective;
 use crate::model::report::Report;
 use crate::output::progress;
 use crate::pipeline::{self, HandMethod, Inputs, Options};
 use crate::{Error, Limits, Result};
+use robustness::{Corruption, corrupt};
 
 /// The paper's IK thresholds [mm].
 pub const THRESHOLDS_MM: [f64; 3] = [10.0, 5.0, 3.5];

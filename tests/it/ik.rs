@@ -9,8 +9,8 @@ use dexwarp::{metrics, pipeline};
 use std::sync::LazyLock;
 
 use dexwarp::geometry::shape::{CollisionShape, ShapeKind};
-use dexwarp::hand::robustness::{Corruption, corrupt};
 use dexwarp::hand::smooth;
+use dexwarp::reproduce::robustness::{Corruption, corrupt};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 
