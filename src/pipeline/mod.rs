@@ -233,6 +233,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
             guard: guard.as_ref(),
             hand_push: &hand_push,
             physics: physics.as_ref(),
+            threshold_mm: params.ik.threshold_mm,
         },
     )?;
     report.provenance = Some(provenance);

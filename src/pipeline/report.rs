@@ -33,6 +33,8 @@ pub(super) struct Stages<'a> {
     pub guard: Option<&'a guard::Stats>,
     pub hand_push: &'a pushout::Stats,
     pub physics: Option<&'a PhysicsReport>,
+    /// The IK threshold of the run [mm] (the config's, or the options').
+    pub threshold_mm: f64,
 }
 
 /// The report of a warp and its per-frame rows, checked for non-finite figures.
@@ -56,8 +58,8 @@ pub(super) fn warp_report(
         guard,
         hand_push,
         physics,
+        threshold_mm,
     } = stages;
-    let threshold = options.threshold_mm.unwrap_or(config.params.threshold_mm);
     let dc_frames = metrics::contact_distance_per_frame_mm(robot, out);
     let mut report = metrics_report(demo, out, &dc_frames, robot, object, barriers, mesh)?;
     let mut frames = frame_rows(out, object, &dc_frames);
@@ -77,7 +79,7 @@ pub(super) fn warp_report(
     report.constraints.hand_pushout_max_mm = hand_push.max_push_m * 1e3;
     report.constraints.hand_narrow_gap = hand_push.narrow_gap.clone();
     report.config = Some(config.source.display().to_string());
-    report.threshold_mm = Some(threshold);
+    report.threshold_mm = Some(threshold_mm);
     report.hand = Some(options.hand.as_str().into());
     if let Some(p) = physics {
         report.physics = Some(p.to_summary());

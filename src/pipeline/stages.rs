@@ -116,7 +116,7 @@ pub(super) fn provenance(inputs: &Inputs, options: &Options, params: &StageParam
         "options",
         &serde_json::json!({
             "hand": options.hand,
-            "threshold_mm": options.threshold_mm.unwrap_or(config.params.threshold_mm),
+            "threshold_mm": params.ik.threshold_mm,
             "solver": options.solver,
             "physics": options.physics.is_some(),
         }),
