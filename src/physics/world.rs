@@ -24,8 +24,8 @@
 
 use nalgebra::{Isometry3, Vector3};
 use rapier3d_f64::prelude::{
-    CoefficientCombineRule, ColliderBuilder, ColliderHandle, IntegrationParameters, PhysicsWorld,
-    RigidBodyBuilder, RigidBodyHandle,
+    CoefficientCombineRule, ColliderBuilder, ColliderHandle, ContactPair, IntegrationParameters,
+    PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
 };
 
 use super::actuated::ActuatedHand;
@@ -224,20 +224,29 @@ impl ReplayWorld {
         self.world.bodies[self.object].linvel().length()
     }
 
+    /// The object's contact pairs, each with whether its other collider is a hand link.
+    fn object_pairs(&self) -> impl Iterator<Item = (&ContactPair, bool)> {
+        self.world
+            .contact_pairs_with(self.object_collider)
+            .map(|pair| {
+                let other = if pair.collider1 == self.object_collider {
+                    pair.collider2
+                } else {
+                    pair.collider1
+                };
+                let is_hand = self
+                    .world
+                    .colliders
+                    .get(other)
+                    .is_some_and(|c| c.user_data == Tag::Hand as u128);
+                (pair, is_hand)
+            })
+    }
+
     /// The object's contacts after the last step, counted for the replay's profile.
     pub fn object_contacts(&self) -> ObjectContacts {
         let mut c = ObjectContacts::default();
-        for pair in self.world.contact_pairs_with(self.object_collider) {
-            let other = if pair.collider1 == self.object_collider {
-                pair.collider2
-            } else {
-                pair.collider1
-            };
-            let is_hand = self
-                .world
-                .colliders
-                .get(other)
-                .is_some_and(|c| c.user_data == Tag::Hand as u128);
+        for (pair, is_hand) in self.object_pairs() {
             for m in pair.manifolds() {
                 let points = m.points.len();
                 if points == 0 {
@@ -269,17 +278,7 @@ impl ReplayWorld {
         if dt <= 0.0 {
             return g;
         }
-        for pair in self.world.contact_pairs_with(self.object_collider) {
-            let other = if pair.collider1 == self.object_collider {
-                pair.collider2
-            } else {
-                pair.collider1
-            };
-            let is_hand = self
-                .world
-                .colliders
-                .get(other)
-                .is_some_and(|c| c.user_data == Tag::Hand as u128);
+        for (pair, is_hand) in self.object_pairs() {
             if !is_hand {
                 continue;
             }

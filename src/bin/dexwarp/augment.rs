@@ -65,7 +65,7 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
             count,
             seed,
             out: out.clone(),
-            jobs: workers.jobs,
+            jobs: workers.jobs(),
             shard,
             force,
             compare_baseline,
