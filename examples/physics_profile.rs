@@ -23,9 +23,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let limits = Limits::default();
     let params = physics::Params::default();
     println!(
-        "| config | frames | steps | hand contact | idle | hand manifolds / step | hand points / step | other manifolds / step | decomposition s | replay s | penetration s | stability s | total s | verdict |"
+        "| config | frames | steps | skipped | hand contact | idle | hand manifolds / step | hand points / step | other manifolds / step | decomposition s | replay s | penetration s | stability s | total s | hand contact s | idle s | other s | verdict |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    println!(
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+    );
     let mut totals = [0.0f64; 5];
     for config in &configs {
         let inputs = Inputs::load(config, None, &limits)?;
@@ -58,10 +60,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             *sum += v;
         }
         println!(
-            "| {} | {} | {} | {:.0} % | {:.0} % | {:.2} | {:.1} | {:.2} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} |",
+            "| {} | {} | {} | {} | {:.0} % | {:.0} % | {:.2} | {:.1} | {:.2} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} |",
             inputs.config.name,
             out.frames.len(),
             f.steps,
+            p.replay.skipped_steps,
             pct(f.hand_contact_steps),
             pct(f.idle_steps),
             f.hand_manifolds as f64 / steps,
@@ -72,12 +75,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             t.penetration,
             t.stability,
             t.total,
+            f.times.hand_contact_s,
+            f.times.idle_s,
+            f.times.other_s,
             if p.passed() { "pass" } else { "fail" },
         );
     }
     let n = configs.len().max(1) as f64;
     println!(
-        "| mean of {} | | | | | | | | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | |",
+        "| mean of {} | | | | | | | | | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | |",
         configs.len(),
         totals[0] / n,
         totals[1] / n,

@@ -8,7 +8,9 @@
 //!    and the checked barriers fixed ([`world`]);
 //! 3. **replay**: the hand driven along the trajectory at steps of at most 1/240 s, wrist
 //!    slerped and joints lerped between frames, then forward kinematics; the object's pose
-//!    recorded at every frame (`replay.rs`);
+//!    recorded at every frame (`replay.rs`); spans where the object rests out of the hand's
+//!    reach are left unstepped, and the replay stops once a drop is decided
+//!    ([`Params::skip_rest`], [`Params::stop_after_drop`]);
 //! 4. **checks** (`checks.rs`): tracking error of the simulated object against the
 //!    demonstration's, drops inside the contact segment (frame and cause), penetration
 //!    depths (hand-object, hand-barrier, object-barrier, hand-support) by parry queries at
@@ -199,7 +201,7 @@ mod checks;
 pub mod margin;
 pub mod params;
 mod replay;
-pub use replay::{IDLE_SPEED_M_S, StepProfile};
+pub use replay::{IDLE_SPEED_M_S, StepProfile, StepTimes};
 pub mod report;
 mod verdict;
 pub mod world;
@@ -410,8 +412,24 @@ fn run_replay(
         1.0 / (n as f64 * demo.fps),
         Vector3::from(params.gravity),
     )?;
-    let trace = replay::replay(robot, demo, &mut world, n);
+    let shortcuts = replay::Shortcuts {
+        rest: params.skip_rest,
+        drop: demo
+            .contact_segment()
+            .filter(|_| params.stop_after_drop)
+            .map(|segment| replay::DropStop {
+                segment,
+                error_m: params.drop_error_m,
+                window: drop_window(demo.fps),
+            }),
+    };
+    let trace = replay::replay(robot, demo, &mut world, n, &shortcuts);
     Ok((trace, t_replay.elapsed().as_secs_f64()))
+}
+
+/// Frames after a drop's first frame in which the hand's contact is read (0.2 s).
+fn drop_window(fps: f64) -> usize {
+    (0.2 * fps).ceil() as usize
 }
 
 /// The checks on the replay (4b), with the per-frame errors they read.
@@ -456,15 +474,8 @@ fn check_replay(
             checks::hand_touches(&hand_placed, object, sim, touch_reach)
         })
         .collect();
-    let dropped = segment.and_then(|s| {
-        checks::find_drop(
-            s,
-            &pos_err,
-            &touching,
-            (0.2 * demo.fps).ceil() as usize,
-            params,
-        )
-    });
+    let dropped = segment
+        .and_then(|s| checks::find_drop(s, &pos_err, &touching, drop_window(demo.fps), params));
 
     let t_stab = Instant::now();
     let stability = segment.map(|s| stability(robot, demo, object, s, params));
@@ -472,9 +483,10 @@ fn check_replay(
 
     let release = release(demo, object, supports, trace, segment, params);
 
-    let grip = segment.map(|s| {
+    let replayed = trace.grip.len();
+    let grip = segment.filter(|s| s.start < replayed).map(|s| {
         checks::grip(
-            &trace.grip[s.start..=s.end],
+            &trace.grip[s.start..=s.end.min(replayed - 1)],
             demo.object.mass * Vector3::from(params.gravity).norm(),
         )
     });
@@ -532,6 +544,9 @@ fn release(
     segment: Option<ContactSegment>,
     params: &Params,
 ) -> Option<Release> {
+    if trace.stopped_at.is_some() {
+        return None;
+    }
     let last = demo.frames.len() - 1;
     segment.filter(|s| s.end < last).map(|s| {
         let pose = &trace.object[last];
@@ -584,6 +599,8 @@ fn judge(
         replay: ReplayInfo {
             frames: demo.frames.len(),
             steps: trace.steps,
+            skipped_steps: trace.skipped_steps,
+            stopped_frame: trace.stopped_at,
             dt_s: trace.dt_s,
             steps_per_frame: trace.steps_per_frame,
             solver_iterations: params.solver_iterations,

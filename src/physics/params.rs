@@ -156,6 +156,14 @@ pub struct Params {
     /// Also replay the robustness margin's conditions when the nominal replay passes
     /// ([`super::margin`]: five more replays, in parallel); default `false`.
     pub margin: bool,
+
+    /// Leave the world unstepped while the object rests on its support and no hand link is
+    /// within reach (the approach and the retreat; see `replay.rs`); default `true`.
+    pub skip_rest: bool,
+    /// Stop the replay once a drop is decided (the drop window after the first frame off
+    /// the plan by more than [`Params::drop_error_m`]); default `true`. The tracking figures
+    /// then cover the replayed frames, and the release is not judged.
+    pub stop_after_drop: bool,
 }
 
 impl Default for Params {
@@ -187,6 +195,8 @@ impl Default for Params {
             rest_motion_m: 0.01,
             support_gap_m: 0.003,
             margin: false,
+            skip_rest: true,
+            stop_after_drop: true,
         }
     }
 }

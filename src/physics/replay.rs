@@ -14,14 +14,35 @@
 //! pose and speed are recorded after the last step of each interval, i.e. at every frame
 //! time, with the hand's contact forces on it ([`ReplayWorld::grip`]). A non-finite object
 //! pose stops the replay and is reported, never propagated.
+//!
+//! # What the replay leaves out ([`Shortcuts`])
+//!
+//! - **Rest**: after a whole frame interval in which no hand link touched the object and the
+//!   object moved less than [`REST_MOTION_M`] and turned less than [`REST_TURN_RAD`], the
+//!   world is left unstepped for as long as every hand collider's bounding box stays farther
+//!   than the reach from the object's ([`ReplayWorld::hand_within`]: finger skin + Rapier's
+//!   prediction distance + [`REST_REACH_MARGIN_M`]). The object keeps its pose and velocity,
+//!   the hand's bodies are not moved; at the first step whose hand comes within reach the
+//!   hand is placed at the previous step's poses ([`ReplayWorld::place_hand`]) and stepping
+//!   resumes from there, so the step that follows sees the hand's true motion. This covers
+//!   the approach before the grasp and the retreat after the release.
+//! - **Drop**: once the simulated object is more than the drop limit off its plan inside the
+//!   contact segment, the drop is decided (its frame is the first such frame, see
+//!   `checks::find_drop`); the replay goes on for the drop window (whether the hand lost
+//!   contact is read there) and stops. The trace then ends at that frame
+//!   ([`Trace::stopped_at`]) and every figure read from it covers the replayed frames only.
+//!
+//! Neither applies to the actuated hand, whose links are dynamic bodies.
+
+use std::time::Instant;
 
 use nalgebra::{Isometry3, Translation3};
 
 use serde::Serialize;
 
 use super::world::{GripSample, ReplayWorld};
-use crate::math::rotation::slerp_shortest;
-use crate::model::{Demo, Frame};
+use crate::math::rotation::{angle_between, slerp_shortest};
+use crate::model::{ContactSegment, Demo, Frame};
 use crate::robot::Robot;
 
 /// What the replay recorded, one entry per frame.
@@ -37,8 +58,13 @@ pub struct Trace {
     pub dt_s: f64,
     /// Steps simulated.
     pub steps: usize,
+    /// Steps left unstepped while the object rested out of the hand's reach.
+    pub skipped_steps: usize,
     /// First frame at which the object pose was not finite.
     pub diverged_at: Option<usize>,
+    /// The last frame replayed when the replay stopped early on a decided drop: the trace's
+    /// per-frame vectors end there.
+    pub stopped_at: Option<usize>,
     /// The hand's contact forces on the object in the last step before each frame time.
     pub grip: Vec<GripSample>,
     /// What the steps simulated: counts of contacts and idle steps.
@@ -61,13 +87,82 @@ pub struct StepProfile {
     /// Object-support and object-barrier manifolds and points, summed over the steps.
     pub other_manifolds: usize,
     pub other_points: usize,
+    /// Wall time of the steps by kind: the one part that differs between two runs.
+    pub times: StepTimes,
+}
+
+/// Wall time [s] of the steps with a hand on the object, of the idle steps and of the others
+/// (hand driving and stepping, not the per-frame recording).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StepTimes {
+    pub hand_contact_s: f64,
+    pub idle_s: f64,
+    pub other_s: f64,
 }
 
 /// Object speed [m/s] below which a step without hand contact counts as idle.
 pub const IDLE_SPEED_M_S: f64 = 1e-3;
 
+/// Largest motion [m] of the object over a frame interval for it to count as at rest.
+pub const REST_MOTION_M: f64 = 1e-5;
+
+/// Largest turn [rad] of the object over a frame interval for it to count as at rest.
+pub const REST_TURN_RAD: f64 = 1e-4;
+
+/// What the hand's reach adds to the finger skin and Rapier's prediction distance [m]
+/// before a resting object is stepped again.
+pub const REST_REACH_MARGIN_M: f64 = 0.01;
+
+/// What the replay may leave out (see the module docs).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Shortcuts {
+    /// Leave the world unstepped while the object rests and no hand link is within reach.
+    pub rest: bool,
+    /// Stop once a drop is decided.
+    pub drop: Option<DropStop>,
+}
+
+/// When a drop is decided: the first frame of `segment` with the object more than
+/// `error_m` off its plan, plus `window` frames.
+#[derive(Clone, Copy, Debug)]
+pub struct DropStop {
+    pub segment: ContactSegment,
+    pub error_m: f64,
+    pub window: usize,
+}
+
+impl DropStop {
+    /// Whether the replay may stop after frame `i`, where the object is at `pose`; `first`
+    /// keeps the drop's frame once found.
+    fn decided(
+        &self,
+        demo: &Demo,
+        i: usize,
+        pose: &Isometry3<f64>,
+        first: &mut Option<usize>,
+    ) -> bool {
+        if first.is_none()
+            && (self.segment.start..=self.segment.end).contains(&i)
+            && (pose.translation.vector - demo.frames[i].object.translation.vector).norm()
+                > self.error_m
+        {
+            *first = Some(i);
+        }
+        first.is_some_and(|f| i >= f + self.window)
+    }
+}
+
+/// Whether the object rests: no hand contact over the last frame interval, and its pose
+/// then and now within [`REST_MOTION_M`] and [`REST_TURN_RAD`].
+fn at_rest(touched: bool, then: &Isometry3<f64>, now: &Isometry3<f64>) -> bool {
+    !touched
+        && (now.translation.vector - then.translation.vector).norm() < REST_MOTION_M
+        && angle_between(&now.rotation, &then.rotation) < REST_TURN_RAD
+}
+
 impl StepProfile {
-    fn record(&mut self, world: &ReplayWorld) {
+    /// Counts one step; whether a hand link touched the object after it.
+    fn record(&mut self, world: &ReplayWorld, seconds: f64) -> bool {
         let c = world.object_contacts();
         self.steps += 1;
         self.hand_manifolds += c.hand_manifolds;
@@ -76,9 +171,14 @@ impl StepProfile {
         self.other_points += c.other_points;
         if c.hand_points > 0 {
             self.hand_contact_steps += 1;
+            self.times.hand_contact_s += seconds;
         } else if world.object_speed() < IDLE_SPEED_M_S {
             self.idle_steps += 1;
+            self.times.idle_s += seconds;
+        } else {
+            self.times.other_s += seconds;
         }
+        c.hand_points > 0
     }
 }
 
@@ -113,8 +213,15 @@ pub fn hand_between(
     );
 }
 
-/// Replays `demo` in `world` (built with the hand at frame 0) with `n` steps per frame.
-pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> Trace {
+/// Replays `demo` in `world` (built with the hand at frame 0) with `n` steps per frame,
+/// leaving out what `shortcuts` allows.
+pub fn replay(
+    robot: &Robot,
+    demo: &Demo,
+    world: &mut ReplayWorld,
+    n: usize,
+    shortcuts: &Shortcuts,
+) -> Trace {
     let frames = &demo.frames;
     let mut trace = Trace {
         steps_per_frame: n,
@@ -126,16 +233,31 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
     trace.speed_m_s.push(world.object_speed());
     trace.grip.reserve(frames.len());
     trace.grip.push(GripSample::default());
+    let reach = world.rest_reach().filter(|_| shortcuts.rest);
     let mut q = vec![0.0; robot.dof()];
     let mut link_poses = robot.new_link_poses();
+    let mut previous = link_poses.clone();
+    let mut resting = false;
+    let mut dropped_at = None;
     for i in 1..frames.len() {
         let (a, b) = (&frames[i - 1], &frames[i]);
+        let mut touched = false;
         for k in 1..=n {
+            let clock = Instant::now();
+            std::mem::swap(&mut previous, &mut link_poses);
             hand_between(robot, a, b, k as f64 / n as f64, &mut q, &mut link_poses);
+            if let Some(reach) = reach.filter(|_| resting) {
+                if !world.hand_within(&link_poses, reach) {
+                    trace.skipped_steps += 1;
+                    continue;
+                }
+                world.place_hand(&previous);
+                resting = false;
+            }
             world.drive_hand(&link_poses, &q);
             world.step();
             trace.steps += 1;
-            trace.profile.record(world);
+            touched |= trace.profile.record(world, clock.elapsed().as_secs_f64());
         }
         let pose = world.object_pose();
         let finite = pose.translation.vector.iter().all(|c| c.is_finite())
@@ -149,9 +271,17 @@ pub fn replay(robot: &Robot, demo: &Demo, world: &mut ReplayWorld, n: usize) -> 
             trace.grip.resize(frames.len(), GripSample::default());
             break;
         }
+        resting = reach.is_some() && at_rest(touched, &trace.object[i - 1], &pose);
         trace.object.push(pose);
         trace.speed_m_s.push(world.object_speed());
         trace.grip.push(world.grip());
+        if let Some(stop) = &shortcuts.drop
+            && stop.decided(demo, i, &pose, &mut dropped_at)
+            && i + 1 < frames.len()
+        {
+            trace.stopped_at = Some(i);
+            break;
+        }
     }
     trace
 }

@@ -136,7 +136,17 @@ pub struct Grip {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ReplayInfo {
     pub frames: usize,
+    /// Steps simulated.
     pub steps: usize,
+    /// Steps left unstepped while the object rested out of the hand's reach
+    /// ([`super::Params::skip_rest`]).
+    #[serde(default)]
+    pub skipped_steps: usize,
+    /// The last frame replayed when the replay stopped on a decided drop
+    /// ([`super::Params::stop_after_drop`]): the tracking figures and the per-frame object
+    /// errors cover frames `0..=stopped_frame`, and the release is not judged.
+    #[serde(default)]
+    pub stopped_frame: Option<usize>,
     pub dt_s: f64,
     pub steps_per_frame: usize,
     pub solver_iterations: usize,

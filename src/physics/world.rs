@@ -23,6 +23,7 @@
 //! [`super::checks`].
 
 use nalgebra::{Isometry3, Vector3};
+use rapier3d_f64::parry::bounding_volume::BoundingVolume;
 use rapier3d_f64::prelude::{
     CoefficientCombineRule, ColliderBuilder, ColliderHandle, ContactPair, IntegrationParameters,
     PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
@@ -207,6 +208,57 @@ impl ReplayWorld {
             HandDrive::Actuated(hand) => *hand.bodies.get(link)?,
         };
         Some(from_pose(self.world.bodies.get(body)?.position()))
+    }
+
+    /// How near [m] a hand collider's bounding box may come to the object's before a resting
+    /// object is stepped again (see `replay.rs`): the finger skin, Rapier's prediction
+    /// distance and [`super::replay::REST_REACH_MARGIN_M`]. `None` for the actuated hand,
+    /// whose dynamic links need every step.
+    pub fn rest_reach(&self) -> Option<f64> {
+        match self.hand {
+            HandDrive::Kinematic(_) => Some(
+                self.finger_skin_m
+                    + self.world.integration_parameters.prediction_distance()
+                    + super::replay::REST_REACH_MARGIN_M,
+            ),
+            HandDrive::Actuated(_) => None,
+        }
+    }
+
+    /// Whether any hand collider, with its link at `link_poses`, has its bounding box within
+    /// `reach` [m] of the object's (the object at its current pose). Always `true` for the
+    /// actuated hand.
+    pub fn hand_within(&self, link_poses: &[Isometry3<f64>], reach: f64) -> bool {
+        let HandDrive::Kinematic(hand) = &self.hand else {
+            return true;
+        };
+        let object = self.world.colliders[self.object_collider]
+            .compute_aabb()
+            .loosened(reach);
+        hand.iter().any(|h| {
+            let Some(body) = self.world.bodies.get(h.body) else {
+                return false;
+            };
+            let link = to_pose(&link_poses[h.link]);
+            body.colliders().iter().any(|&c| {
+                self.world.colliders.get(c).is_some_and(|c| {
+                    let pose = c.position_wrt_parent().map_or(link, |p| link * *p);
+                    c.shape().compute_aabb(&pose).intersects(&object)
+                })
+            })
+        })
+    }
+
+    /// Places the kinematic hand's links at `link_poses` at once (no motion through the
+    /// world, zero velocity); the actuated hand is left as it is.
+    pub fn place_hand(&mut self, link_poses: &[Isometry3<f64>]) {
+        if let HandDrive::Kinematic(hand) = &self.hand {
+            for h in hand {
+                if let Some(b) = self.world.bodies.get_mut(h.body) {
+                    b.set_position(to_pose(&link_poses[h.link]), false);
+                }
+            }
+        }
     }
 
     /// Advances the simulation by one step.

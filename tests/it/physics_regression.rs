@@ -178,14 +178,34 @@ fn tolerances() -> Tolerances {
     }
 }
 
+/// Every step simulated: no rest skipped, no stop after a drop (the replay the figures
+/// were captured with).
+fn every_step() -> Params {
+    Params {
+        skip_rest: false,
+        stop_after_drop: false,
+        ..Params::default()
+    }
+}
+
 #[test]
 fn physics_figures_match_the_captured_ones() {
     let dir = tempfile::tempdir().unwrap();
     let cases = cases(dir.path());
-    let params = Params::default();
-    let now: Vec<Figures> = cases
+    let (full, short): (Vec<PhysicsReport>, Vec<PhysicsReport>) = cases
         .par_iter()
-        .map(|c| figures(&c.name, &replay_file(&c.path, &params)))
+        .map(|c| {
+            (
+                replay_file(&c.path, &every_step()),
+                replay_file(&c.path, &Params::default()),
+            )
+        })
+        .unzip();
+    shortcuts_keep_the_verdicts(&cases, &full, &short);
+    let now: Vec<Figures> = cases
+        .iter()
+        .zip(&full)
+        .map(|(c, r)| figures(&c.name, r))
         .collect();
     if std::env::var_os("DEXWARP_CAPTURE_PHYSICS").is_some() {
         let captured = Captured {
@@ -287,6 +307,56 @@ fn physics_figures_match_the_captured_ones() {
         }
     }
     assert!(bad.is_empty(), "physics figures moved:\n{}", bad.join("\n"));
+}
+
+/// The replay's shortcuts (rest skipped, stop after a drop; the defaults) against stepping
+/// every frame: the same verdict, the same first reason and drop; the stop one drop window
+/// after the drop's frame; where nothing was left out, the same report to the bit.
+fn shortcuts_keep_the_verdicts(cases: &[Case], full: &[PhysicsReport], short: &[PhysicsReport]) {
+    let mut bad = Vec::new();
+    let mut skipped = 0;
+    for ((c, f), s) in cases.iter().zip(full).zip(short) {
+        assert_eq!(f.replay.skipped_steps, 0);
+        assert_eq!(f.replay.stopped_frame, None);
+        skipped += s.replay.skipped_steps;
+        let drop = |r: &PhysicsReport| r.drop.as_ref().map(|d| (d.frame, d.cause));
+        if f.verdict() != s.verdict()
+            || f.reasons.first() != s.reasons.first()
+            || drop(f) != drop(s)
+        {
+            bad.push(format!(
+                "{}: every step {} {:?}, with shortcuts {} {:?}",
+                c.name,
+                f.verdict(),
+                f.reasons.first(),
+                s.verdict(),
+                s.reasons.first()
+            ));
+        }
+        match (s.replay.stopped_frame, &s.drop) {
+            (Some(stop), Some(d)) => assert!(
+                stop >= d.frame && stop < f.replay.frames - 1,
+                "{}: stopped at {stop}, drop at {}",
+                c.name,
+                d.frame
+            ),
+            (Some(stop), None) => bad.push(format!("{}: stopped at {stop} without a drop", c.name)),
+            (None, _) => {}
+        }
+        if s.replay.skipped_steps == 0 && s.replay.stopped_frame.is_none() {
+            assert_eq!(f.per_frame, s.per_frame, "{}: nothing left out", c.name);
+        }
+    }
+    assert!(skipped > 0, "no trajectory rested out of the hand's reach");
+    assert!(
+        short.iter().any(|s| s.replay.stopped_frame.is_some()),
+        "no trajectory stopped after a drop"
+    );
+    assert!(
+        bad.is_empty(),
+        "the shortcuts moved a verdict:\n{}",
+        bad.join("\n")
+    );
 }
 
 /// The robustness margin of the six base demonstrations (36 replays: run on demand with
