@@ -172,12 +172,27 @@ fn input() -> Input {
     }
 }
 
-/// The whole stage: replay, penetration queries, stability tests, verdict.
-#[divan::bench(sample_count = 20)]
-fn validate_700_frames(bencher: divan::Bencher) {
+/// The replay's parameters: the defaults (rest spans out of the hand's reach skipped, stop
+/// after a drop), or every step simulated.
+fn params(mode: &str) -> Params {
+    match mode {
+        "every_step" => Params {
+            skip_rest: false,
+            stop_after_drop: false,
+            ..Params::default()
+        },
+        _ => Params::default(),
+    }
+}
+
+/// The whole stage: replay, penetration queries, stability tests, verdict. The gripper
+/// rests out of reach for the first 45 and the last 200 frames: `default` skips those
+/// spans, `every_step` steps them.
+#[divan::bench(sample_count = 20, args = ["default", "every_step"])]
+fn validate_700_frames(bencher: divan::Bencher, mode: &str) {
     let input = input();
     let barriers = vec!["beam".to_string()];
-    let params = Params::default();
+    let params = params(mode);
     let run = || {
         validate(
             &input.robot,
@@ -193,8 +208,9 @@ fn validate_700_frames(bencher: divan::Bencher) {
     let report = run();
     assert!(report.passed(), "{:?}", report.reasons);
     eprintln!(
-        "validate_700_frames: {} steps; replay {:.3} s, penetration {:.3} s, stability {:.3} s (one run)",
+        "validate_700_frames ({mode}): {} steps, {} skipped; replay {:.3} s, penetration {:.3} s, stability {:.3} s (one run)",
         report.replay.steps,
+        report.replay.skipped_steps,
         report.timing_s.replay,
         report.timing_s.penetration,
         report.timing_s.stability
@@ -250,6 +266,35 @@ fn validate_committed_demo(bencher: divan::Bencher, name: &str) {
         report.timing_s.replay,
         report.timing_s.penetration,
         report.timing_s.stability
+    );
+    bencher.bench_local(run);
+}
+
+/// The contact-heavy case: the human hand pinching the teapot's handle (about 40 contact
+/// manifolds per step with the hand on it), with the defaults and with every step simulated.
+#[divan::bench(sample_count = 5, args = ["default", "every_step"])]
+fn teapot_contact_heavy(bencher: divan::Bencher, mode: &str) {
+    let (input, barriers) = committed("teapot");
+    let params = params(mode);
+    let run = || {
+        validate(
+            &input.robot,
+            &input.demo,
+            &input.scene,
+            &barriers,
+            &input.mesh,
+            &params,
+            &Limits::default(),
+        )
+        .unwrap()
+    };
+    let report = run();
+    eprintln!(
+        "teapot ({mode}): {} ({} steps, {} skipped; replay {:.3} s)",
+        report.verdict(),
+        report.replay.steps,
+        report.replay.skipped_steps,
+        report.timing_s.replay
     );
     bencher.bench_local(run);
 }

@@ -25,7 +25,13 @@
 //!   the hand's bodies are not moved; at the first step whose hand comes within reach the
 //!   hand is placed at the previous step's poses ([`ReplayWorld::place_hand`]) and stepping
 //!   resumes from there, so the step that follows sees the hand's true motion. This covers
-//!   the approach before the grasp and the retreat after the release.
+//!   the approach before the grasp and the retreat after the release. An object that rests
+//!   on a support at frame 0 (within [`super::Params::support_gap_m`]) counts as at rest from
+//!   the start: the demonstration says it lies there until the hand comes. Stepping it
+//!   anyway adds what the engine does to an untouched object: Rapier has no rolling
+//!   resistance, and the apple alone on a table (its 40-gon hull resting on a flat face)
+//!   rocks at 1-2 rad/s and turns 17° in 3.5 s, the whole approach of its demonstration,
+//!   which the hand then holds as tracking error.
 //! - **Drop**: once the simulated object is more than the drop limit off its plan inside the
 //!   contact segment, the drop is decided (its frame is the first such frame, see
 //!   `checks::find_drop`); the replay goes on for the drop window (whether the hand lost
@@ -118,6 +124,9 @@ pub const REST_REACH_MARGIN_M: f64 = 0.01;
 pub struct Shortcuts {
     /// Leave the world unstepped while the object rests and no hand link is within reach.
     pub rest: bool,
+    /// The object rests on a support at frame 0: unstepped from the start until a hand
+    /// link comes within reach (with `rest`).
+    pub rests_at_start: bool,
     /// Stop once a drop is decided.
     pub drop: Option<DropStop>,
 }
@@ -236,8 +245,10 @@ pub fn replay(
     let reach = world.rest_reach().filter(|_| shortcuts.rest);
     let mut q = vec![0.0; robot.dof()];
     let mut link_poses = robot.new_link_poses();
+    // The hand where the world was built: the poses `previous` holds at the first step.
+    robot.forward_kinematics(&frames[0].wrist, &frames[0].joints, &mut link_poses);
     let mut previous = link_poses.clone();
-    let mut resting = false;
+    let mut resting = reach.is_some() && shortcuts.rests_at_start;
     let mut dropped_at = None;
     for i in 1..frames.len() {
         let (a, b) = (&frames[i - 1], &frames[i]);
