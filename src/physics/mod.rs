@@ -311,6 +311,27 @@ pub fn validate(
     Ok(report)
 }
 
+/// The grasp hold test (`dexwarp validate --grasp-only`): the stability test of [`validate`]
+/// alone, without the replay. At sampled frames of the contact segment the hand is frozen at
+/// the frame's pose, the object starts at its recorded pose with no support under it, and
+/// gravity acts for [`Params::stability_steps`] steps; the object's displacement is what
+/// the grasp lets it fall or turn (ObMan, GraspTTA). `None` when the demonstration has no
+/// contact frame. The grasp holds when the largest displacement is within
+/// [`Params::max_sim_displacement_m`].
+pub fn hold(
+    robot: &Robot,
+    demo: &Demo,
+    object_mesh: &Mesh,
+    params: &Params,
+) -> Result<Option<Stability>> {
+    params.check()?;
+    check_demo(robot, demo)?;
+    let (object, _, _) = object_shapes(demo, object_mesh, params)?;
+    Ok(demo
+        .contact_segment()
+        .map(|s| stability(robot, demo, &object, s, params)))
+}
+
 /// The object's convex decomposition (and whether it came from the cache) and its signed
 /// distance field: the same one the IK keeps the fingers out of.
 fn object_shapes(

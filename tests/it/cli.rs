@@ -380,3 +380,62 @@ fn reproduce_runs_on_a_scene_folder_and_refuses_a_folder_without_configs() {
         stderr(&o)
     );
 }
+
+/// `validate --grasp-only`: the teapot's recorded grasp holds; the cube's with the hand lifted
+/// 5 cm off it at every contact frame lets it fall, and `--strict` exits 3.
+#[test]
+fn validate_grasp_only_tells_a_holding_grasp_from_an_empty_hand() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("teapot");
+    let o = dexwarp(&[
+        "validate",
+        repo("scenes/demos/teapot.demo.json").to_str().unwrap(),
+        "--grasp-only",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("the grasp holds"), "{}", stderr(&o));
+    let g: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("grasp.json")).unwrap()).unwrap();
+    assert_eq!(g["holds"], true);
+    assert_eq!(g["stability"]["frames"].as_array().unwrap().len(), 8);
+    assert!(!out.join("report.json").exists());
+
+    let mut demo: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(repo("scenes/demos/cube.demo.json")).unwrap())
+            .unwrap();
+    let demos = repo("scenes/demos");
+    for key in ["robot", "scene"] {
+        let p = demos.join(demo[key].as_str().unwrap());
+        demo[key] = p.to_str().unwrap().into();
+    }
+    let mesh = demos.join(demo["object"]["mesh"].as_str().unwrap());
+    demo["object"]["mesh"] = mesh.to_str().unwrap().into();
+    let mut lifted = 0;
+    for f in demo["frames"].as_array_mut().unwrap() {
+        if f["contacts"].as_array().is_some_and(|c| !c.is_empty()) {
+            let z = f["wrist"]["position"][2].as_f64().unwrap();
+            f["wrist"]["position"][2] = (z + 0.05).into();
+            lifted += 1;
+        }
+    }
+    assert!(lifted > 100);
+    let path = dir.path().join("empty_hand.demo.json");
+    std::fs::write(&path, serde_json::to_vec(&demo).unwrap()).unwrap();
+    let out = dir.path().join("empty");
+    let o = dexwarp(&[
+        "validate",
+        path.to_str().unwrap(),
+        "--grasp-only",
+        "--strict",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("does not hold"), "{}", stderr(&o));
+    let g: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("grasp.json")).unwrap()).unwrap();
+    assert_eq!(g["holds"], false);
+    assert!(g["stability"]["max_mm"].as_f64().unwrap() > 30.0);
+}

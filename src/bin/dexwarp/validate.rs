@@ -31,6 +31,10 @@ pub struct ValidateArgs {
     /// Exit non-zero (status 3) when the physics verdict is fail.
     #[arg(long)]
     strict: bool,
+    /// Only test whether the recorded grasp holds: at sampled contact frames the hand is
+    /// frozen, the object released without support under gravity; writes DIR/grasp.json.
+    #[arg(long)]
+    grasp_only: bool,
 }
 
 pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
@@ -41,13 +45,18 @@ pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
         barriers,
         physics,
         strict,
+        grasp_only,
     } = args;
     let out = out.out;
+    let params = physics.options().apply(dexwarp::physics::Params::default());
+    if grasp_only {
+        return grasp(&demo, &out, &params, strict, &limits);
+    }
     let (report, frames) = pipeline::validate(
         &demo,
         scene.as_deref(),
         (!barriers.is_empty()).then_some(barriers.as_slice()),
-        &physics.options().apply(dexwarp::physics::Params::default()),
+        &params,
         &limits,
     )?;
     dexwarp::output::check_not_inputs(
@@ -79,6 +88,56 @@ pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
     );
     eprintln!("{}", verdict_line(&report));
     if strict && physics.is_some_and(|p| p.verdict != "pass") {
+        std::process::exit(3);
+    }
+    Ok(())
+}
+
+/// `validate --grasp-only`: the hold test of the recorded grasp ([`dexwarp::physics::hold`]).
+fn grasp(
+    demo_path: &std::path::Path,
+    out: &std::path::Path,
+    params: &dexwarp::physics::Params,
+    strict: bool,
+    limits: &Limits,
+) -> Result<()> {
+    let mut demo = dexwarp::model::Demo::load(demo_path, limits)?;
+    let robot = demo.load_robot(limits)?;
+    demo.check_robot(&robot)?;
+    let mesh =
+        dexwarp::geometry::Mesh::load(&demo.object.mesh, nalgebra::Vector3::repeat(1.0), limits)?;
+    let Some(hold) = dexwarp::physics::hold(&robot, &demo, &mesh, params)? else {
+        anyhow::bail!(
+            "{}: no frame has contacts, so there is no grasp to test",
+            demo_path.display()
+        );
+    };
+    let limit_mm = params.max_sim_displacement_m * 1e3;
+    let holds = hold.max_mm <= limit_mm;
+    let sentence = format!(
+        "{}: the grasp {} (object displacement over {} sampled contact frames: mean {:.1} mm, largest {:.1} mm at frame {}; limit {:.1} mm)",
+        demo_path.display(),
+        if holds { "holds" } else { "does not hold" },
+        hold.frames.len(),
+        hold.mean_mm,
+        hold.max_mm,
+        hold.max_frame.unwrap_or(0),
+        limit_mm
+    );
+    dexwarp::output::check_not_inputs(out, &["grasp.json".into()], &[demo_path])?;
+    dexwarp::model::json::write_json_atomic(
+        &out.join("grasp.json"),
+        &serde_json::json!({
+            "format": "dexwarp.grasp/1",
+            "demo": demo_path.display().to_string(),
+            "holds": holds,
+            "limit_mm": limit_mm,
+            "sentence": sentence,
+            "stability": hold,
+        }),
+    )?;
+    eprintln!("{sentence}");
+    if strict && !holds {
         std::process::exit(3);
     }
     Ok(())
