@@ -25,8 +25,9 @@
 use nalgebra::{Isometry3, Vector3};
 use rapier3d_f64::parry::bounding_volume::BoundingVolume;
 use rapier3d_f64::prelude::{
-    CoefficientCombineRule, ColliderBuilder, ColliderHandle, ContactPair, IntegrationParameters,
-    PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
+    ActiveHooks, CoefficientCombineRule, ColliderBuilder, ColliderHandle,
+    ContactModificationContext, ContactPair, IntegrationParameters, PhysicsHooks, PhysicsWorld,
+    RigidBodyBuilder, RigidBodyHandle,
 };
 
 use super::actuated::ActuatedHand;
@@ -87,6 +88,8 @@ pub struct ReplayWorld {
     pub object_collider: ColliderHandle,
     /// The hand colliders' contact skin [m].
     finger_skin_m: f64,
+    /// Drops the hand-object solver contacts that cannot act in the step.
+    hooks: SolverCut,
 }
 
 impl std::fmt::Debug for ReplayWorld {
@@ -263,7 +266,7 @@ impl ReplayWorld {
 
     /// Advances the simulation by one step.
     pub fn step(&mut self) {
-        self.world.step();
+        self.world.step_with_events(&self.hooks, &());
     }
 
     /// The object's world pose.
@@ -393,7 +396,58 @@ fn hand_collider(cs: &CollisionShape, params: &Params) -> ColliderBuilder {
         .friction(params.hand_friction)
         .friction_combine_rule(CoefficientCombineRule::Max)
         .contact_skin(params.finger_skin_m)
+        .active_hooks(if params.solver_contact_gap_m.is_some() {
+            ActiveHooks::MODIFY_SOLVER_CONTACTS
+        } else {
+            ActiveHooks::empty()
+        })
         .user_data(Tag::Hand as u128)
+}
+
+/// Leaves out of the solver the hand-object manifolds Rapier keeps within its prediction
+/// distance (20 mm) whose every contact's gap (the finger skin deducted) stays at least
+/// `gap_m` at the end of the step at the bodies' current relative normal speed
+/// ([`Params::solver_contact_gap_m`], off by default). Such a manifold would only forbid
+/// closing its gap within the step; 76 % of the teapot's hand-object solver manifolds are
+/// of this kind. A manifold with one contact that may act keeps all of them (its far
+/// contacts place its friction); the narrow phase is untouched. It still changes the
+/// outcome: Rapier solves contacts by one Gauss-Seidel pass per substep in an order set by
+/// its constraint graph, and fewer constraints reorder the ones that act (see the physics
+/// module docs).
+#[derive(Clone, Copy, Debug)]
+struct SolverCut {
+    gap_m: f64,
+    dt: f64,
+}
+
+impl PhysicsHooks for SolverCut {
+    fn modify_solver_contacts(&self, context: &mut ContactModificationContext) {
+        let body_velocity = |handle: Option<RigidBodyHandle>, point| {
+            handle
+                .and_then(|h| context.bodies.get(h))
+                .map(|b| b.velocity_at_point(point))
+                .unwrap_or_default()
+        };
+        let (rb1, rb2) = (context.rigid_body1, context.rigid_body2);
+        let mut velocities = Vec::new();
+        if let Some(m) = context.rigid() {
+            let normal = *m.normal;
+            velocities.extend(m.solver_contacts.iter().map(|c| {
+                (body_velocity(rb2, c.anchor2) - body_velocity(rb1, c.anchor1)).dot(normal)
+            }));
+        }
+        let Some(m) = context.rigid_mut() else {
+            return;
+        };
+        let idle = m
+            .solver_contacts
+            .iter()
+            .zip(&velocities)
+            .all(|(c, closing)| c.dist >= self.gap_m && c.dist + closing * self.dt >= self.gap_m);
+        if idle {
+            m.solver_contacts.clear();
+        }
+    }
 }
 
 /// Adds the dynamic object and the fixed items to a world holding the hand.
@@ -424,12 +478,17 @@ fn with_object_and_scene(
                 .user_data(item.tag as u128),
         );
     }
+    let hooks = SolverCut {
+        gap_m: params.solver_contact_gap_m.unwrap_or(f64::INFINITY),
+        dt: world.integration_parameters.dt,
+    };
     ReplayWorld {
         world,
         hand,
         object: object_body,
         object_collider,
         finger_skin_m: params.finger_skin_m,
+        hooks,
     }
 }
 

@@ -562,6 +562,34 @@ fn gripper_pick_and_place_passes() {
     assert!(report.drop.is_none());
 }
 
+/// The solver cut (`solver_contact_gap_m`, off by default) leaves the gripper's pick and
+/// place passing with the same drop-free replay, within 1 mm of the default's tracking.
+#[test]
+fn solver_cut_keeps_the_gripper_pick_and_place() {
+    let case = gripper_case(Variant::Good, None);
+    let full = run(&case);
+    let params = Params {
+        solver_contact_gap_m: Some(0.003),
+        ..Params::default()
+    };
+    let cut = validate(
+        &case.robot,
+        &case.demo,
+        &case.scene,
+        &case.barriers,
+        &case.mesh,
+        &params,
+        &Limits::default(),
+    )
+    .unwrap();
+    assert!(full.passed() && cut.passed(), "{:?}", cut.reasons);
+    let (a, b) = (&full.tracking, &cut.tracking);
+    assert!(
+        (a.max_position_error_mm - b.max_position_error_mm).abs() < 1.0,
+        "{a:?} vs {b:?}"
+    );
+}
+
 #[test]
 fn gripper_report_is_deterministic() {
     let case = gripper_case(Variant::Good, None);
