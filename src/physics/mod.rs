@@ -348,6 +348,21 @@ pub fn hold(
         .map(|s| stability(robot, demo, &object, s, params)))
 }
 
+/// The hold test of one grasp [m]: the object's displacement with the hand frozen at
+/// `link_poses`, the object (mass `mass`) starting at `object_pose` with no support under it,
+/// gravity acting for [`Params::stability_steps`] steps (the test [`hold`] runs at sampled
+/// contact frames). The grasp holds when it is within [`Params::max_sim_displacement_m`].
+pub fn hold_displacement(
+    robot: &Robot,
+    link_poses: &[nalgebra::Isometry3<f64>],
+    object: &ObjectShape,
+    object_pose: &nalgebra::Isometry3<f64>,
+    mass: f64,
+    params: &Params,
+) -> f64 {
+    checks::sim_displacement(robot, link_poses, object, object_pose, mass, params)
+}
+
 /// The object's convex decomposition (and whether it came from the cache) and its signed
 /// distance field: the same one the IK keeps the fingers out of.
 fn object_shapes(

@@ -120,6 +120,8 @@ pub struct SynthSpec {
     /// The link the wrist is (`--wrist-link`), written into the demonstration; the robot
     /// given to [`synthesize`] must be loaded rooted there.
     pub wrist_link: Option<String>,
+    /// The physics of the grasp's hold test (the replay's defaults).
+    pub hold: crate::physics::Params,
 }
 
 impl SynthSpec {
@@ -154,6 +156,7 @@ impl SynthSpec {
             max_penetration_mm: 2.0,
             tips: None,
             wrist_link: None,
+            hold: crate::physics::Params::default(),
         }
     }
 }
@@ -162,6 +165,8 @@ impl SynthSpec {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SynthStats {
     pub grasp: Grasp,
+    /// Which grasp candidate was kept, its hold test, and what was tried before it.
+    pub choice: GraspChoice,
     /// Correspondences per in-contact frame.
     pub contacts_per_frame: usize,
     /// Mean correspondence distance over the in-contact frames (`D_C`) [mm].
@@ -226,7 +231,8 @@ pub fn synthesize(
     )
     .expect("a box is a valid shape");
 
-    let (template, g) = grasp_search(spec, robot, robot_path, &geo, &shape, &start, &table)?;
+    let (template, g, choice) =
+        grasp_search(spec, robot, robot_path, &geo, &shape, &start, &table)?;
 
     // Correspondences at the grasp, object frame.
     let mut poses = robot.new_link_poses();
@@ -275,6 +281,7 @@ pub fn synthesize(
     Ok(Synthesis {
         stats: SynthStats {
             grasp: g,
+            choice,
             contacts_per_frame: base_contacts.len(),
             d_c_mm,
             max_penetration_mm: worst * 1e3,
@@ -284,9 +291,10 @@ pub fn synthesize(
     })
 }
 
-/// The grasp and the template it was solved from: the first template whose grasp IK
-/// succeeds on the object at `start` (with the support `table` as a barrier). Fails with the
-/// first solve's error when none does.
+/// The grasp and the template it was solved from: the first candidate whose grasp IK
+/// succeeds on the object at `start` (with the support `table` as a barrier) and whose grasp
+/// holds the object in physics ([`hold_test`]), with what was tried. Fails naming every
+/// candidate and why it failed when none does.
 fn grasp_search(
     spec: &SynthSpec,
     robot: &Robot,
@@ -295,45 +303,55 @@ fn grasp_search(
     shape: &CollisionShape,
     start: &Isometry3<f64>,
     table: &CollisionShape,
-) -> Result<(GraspTemplate, Grasp)> {
+) -> Result<(GraspTemplate, Grasp, GraspChoice)> {
     let object = spec.object;
     let fail = |field: &str, msg: String| Error::invalid(robot_path, field, msg);
     // Our hands have named templates for the objects they were made with; any other hand,
     // object or `--tips` gets its grasp from the hand's kinematics (so does a hand whose
     // link names match ours but whose named grasp fails). When the grasp of every finger is
-    // out of reach, the thumb and the two fingers it opposes try alone.
+    // out of reach or does not hold, the thumb and the two fingers it opposes try alone.
     let named = HandFamily::detect(robot)
         .filter(|_| spec.tips.is_none())
         .and_then(|family| templates::template(family, object));
-    let generic = || -> Result<Vec<GraspTemplate>> {
+    let generic = || -> Result<Vec<(&'static str, GraspTemplate)>> {
         let layout = super::generic::layout(robot, spec.tips.as_deref())
             .map_err(|e| fail("(robot)", format!("robot {:?}: {e}", robot.name)))?;
-        let mut out = vec![super::generic::template(robot, &layout, geo)];
+        let mut out = vec![(
+            "every finger",
+            super::generic::template(robot, &layout, geo),
+        )];
         if let Some(tripod) = super::generic::tripod(&layout) {
-            out.push(super::generic::template(robot, &tripod, geo));
+            out.push((
+                "thumb and two fingers",
+                super::generic::template(robot, &tripod, geo),
+            ));
         }
         Ok(out)
     };
-    let mut queue: Vec<GraspTemplate> = named.into_iter().collect();
+    let hold = HoldTest::new(object, &spec.hold, robot_path)?;
+    let mut queue: Vec<(&'static str, GraspTemplate)> = named
+        .into_iter()
+        .map(|t| ("the hand's template", t))
+        .collect();
     let mut generic_queued = false;
-    let mut first_err = None;
+    let mut tried: Vec<String> = Vec::new();
     let mut k = 0;
-    let solved = loop {
+    loop {
         if k == queue.len() {
             if generic_queued {
-                break None;
+                break;
             }
             generic_queued = true;
             match generic() {
                 Ok(ts) => queue.extend(ts),
-                Err(e) if first_err.is_none() => return Err(e),
-                Err(_) => break None,
+                Err(e) if tried.is_empty() => return Err(e),
+                Err(_) => break,
             }
             continue;
         }
-        let template = queue[k].clone();
+        let (label, template) = queue[k].clone();
         k += 1;
-        match grasp::solve(
+        let g = match grasp::solve(
             robot,
             &template,
             geo,
@@ -342,22 +360,96 @@ fn grasp_search(
             std::slice::from_ref(table),
             &spec.grasp,
         ) {
-            Ok(g) => break Some((template, g)),
+            Ok(g) => g,
             Err(e) => {
-                first_err.get_or_insert(e);
+                tried.push(format!("{label}: {e}"));
+                continue;
             }
+        };
+        let moved_mm = hold.displacement_mm(robot, &g, start);
+        if moved_mm <= hold.limit_mm() {
+            let choice = GraspChoice {
+                candidate: label.to_string(),
+                hold_mm: moved_mm,
+                tried,
+            };
+            return Ok((template, g, choice));
         }
-    };
-    solved.ok_or_else(|| {
-        let e = first_err.expect("a failed solve left its error");
-        fail(
-            "(grasp)",
-            format!(
-                "cannot grasp object '{object}' with robot {:?}: {e}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
-                robot.name
-            ),
-        )
-    })
+        tried.push(format!(
+            "{label}: the grasp does not hold the object (it moves {moved_mm:.1} mm in the hold test, limit {:.1} mm)",
+            hold.limit_mm()
+        ));
+    }
+    Err(fail(
+        "(grasp)",
+        format!(
+            "cannot grasp object '{object}' with robot {:?}: {}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
+            robot.name,
+            tried.join("; ")
+        ),
+    ))
+}
+
+/// Which grasp candidate synthesis kept, and what it tried before it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GraspChoice {
+    /// The candidate kept: "the hand's template", "every finger" or "thumb and two fingers".
+    pub candidate: String,
+    /// The object's displacement in the hold test of the kept grasp [mm].
+    pub hold_mm: f64,
+    /// The candidates tried before it, each with why it failed.
+    pub tried: Vec<String>,
+}
+
+/// The physics hold test of a synthesized grasp ([`crate::physics::hold_displacement`]):
+/// the hand frozen at the grasp, the object released at its start pose with no support,
+/// gravity, the replay's contact model and limit.
+struct HoldTest {
+    object: std::sync::Arc<crate::physics::ObjectShape>,
+    mass: f64,
+    params: crate::physics::Params,
+}
+
+impl HoldTest {
+    fn new(
+        object: ObjectKind,
+        params: &crate::physics::Params,
+        robot_path: &Path,
+    ) -> Result<HoldTest> {
+        params.check()?;
+        let params = params.clone();
+        let (shape, _) = crate::physics::object_shape(&object.mesh(), &params.decomposition)
+            .ok_or_else(|| {
+                Error::invalid(
+                    robot_path,
+                    "(object)",
+                    format!("object '{object}' has a degenerate mesh"),
+                )
+            })?;
+        Ok(HoldTest {
+            object: shape,
+            mass: object.mass_kg(),
+            params,
+        })
+    }
+
+    fn limit_mm(&self) -> f64 {
+        self.params.max_sim_displacement_m * 1e3
+    }
+
+    /// The object's displacement [mm] under grasp `g` of the object at `start`.
+    fn displacement_mm(&self, robot: &Robot, g: &Grasp, start: &Isometry3<f64>) -> f64 {
+        let mut poses = robot.new_link_poses();
+        robot.forward_kinematics(&(start * g.wrist_in_object), &g.q, &mut poses);
+        crate::physics::hold_displacement(
+            robot,
+            &poses,
+            &self.object,
+            start,
+            self.mass,
+            &self.params,
+        ) * 1e3
+    }
 }
 
 /// The deepest hand-object penetration of the frames outside the in-contact segment

@@ -492,3 +492,33 @@ fn wrist_link_drops_the_links_above_it() {
         report["physics"]
     );
 }
+
+/// `synth` keeps a grasp only when it holds the object in the physics hold test: the
+/// built-in small box's gripper grasp holds at its first candidate; under 200 g of gravity
+/// (2 kN on the 0.1 kg box, against a squeeze of about 100 N) no candidate holds and synthesis
+/// fails naming each and its displacement.
+#[test]
+fn synth_keeps_only_a_grasp_that_holds() {
+    use dexwarp::synth::defaults::base_demos;
+    use dexwarp::synth::demo::synthesize;
+    let limits = dexwarp::Limits::default();
+    let base = base_demos()
+        .into_iter()
+        .find(|b| b.spec.name == "small_box")
+        .unwrap();
+    let robot_path = repo("robots").join(base.robot);
+    let robot = Robot::from_urdf_file(&robot_path, &limits).unwrap();
+    let mesh = repo("scenes/objects/small_box.obj");
+    let syn = synthesize(&base.spec, &robot, &robot_path, &mesh).unwrap();
+    let choice = &syn.stats.choice;
+    assert!(choice.tried.is_empty(), "{choice:?}");
+    assert!(choice.hold_mm < 30.0, "{choice:?}");
+
+    let mut heavy = base.spec.clone();
+    heavy.hold.gravity = [0.0, 0.0, -2000.0];
+    let err = synthesize(&heavy, &robot, &robot_path, &mesh)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("does not hold the object"), "{err}");
+    assert!(err.contains("limit 30.0 mm"), "{err}");
+}

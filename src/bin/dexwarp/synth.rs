@@ -10,6 +10,8 @@ use crate::args::non_negative;
 
 /// Make a demonstration: the object resting on a support, the hand reaching and grasping
 /// it (contact IK), a scripted motion, release and retreat, with geometric correspondences.
+/// The grasp must hold the object in a physics hold test (hand frozen, object released
+/// without support); a grasp that does not hold gives way to the next candidate.
 #[derive(Debug, Args)]
 #[command(
     after_help = "Objects: cube, frying_pan, mug, teapot, apple, small_box. Motions: lift_place, pour, pass.\n\nExamples:\n  dexwarp synth --object mug --robot robots/human_hand.urdf --motion pass --out out/mug.demo.json\n  dexwarp synth --object apple --robot robots/allegro_hand.urdf --motion lift_place --out out/apple.demo.json --noise-mm 2 --seed 3"
@@ -77,6 +79,17 @@ pub fn run(args: SynthArgs, limits: Limits) -> Result<()> {
         syn.demo.frames.len(),
         syn.stats.contacts_per_frame,
         syn.stats.d_c_mm
+    );
+    let choice = &syn.stats.choice;
+    eprintln!(
+        "grasp: {}, holds (the object moves {:.1} mm in the physics hold test){}",
+        choice.candidate,
+        choice.hold_mm,
+        if choice.tried.is_empty() {
+            String::new()
+        } else {
+            format!("; tried first: {}", choice.tried.join("; "))
+        }
     );
     if let Some(w) = &syn.demo.wrist_link {
         eprintln!("wrist link: {w} (the links above it are left out)");
