@@ -380,14 +380,50 @@ fn grasp_search(
             hold.limit_mm()
         ));
     }
+    let too_wide = super::generic::layout(robot, spec.tips.as_deref())
+        .ok()
+        .and_then(|layout| jaws_too_narrow(robot, &layout, geo))
+        .unwrap_or_default();
     Err(fail(
         "(grasp)",
         format!(
-            "cannot grasp object '{object}' with robot {:?}: {}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
+            "cannot grasp object '{object}' with robot {:?}: {}{too_wide}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
             robot.name,
             tried.join("; ")
         ),
     ))
+}
+
+/// For a two-finger hand whose pads open less far than the object is wide (its narrowest
+/// horizontal width, 5° steps): a clause saying both, for the refusal.
+fn jaws_too_narrow(
+    robot: &Robot,
+    layout: &super::generic::HandLayout,
+    geo: &ObjectGeometry,
+) -> Option<String> {
+    let [a, b] = layout.fingers.as_slice() else {
+        return None;
+    };
+    let mut poses = robot.new_link_poses();
+    let mut span = |q: &[f64]| {
+        robot.forward_kinematics(&Isometry3::identity(), q, &mut poses);
+        (poses[a.distal.index()] * a.pad - poses[b.distal.index()] * b.pad).norm()
+    };
+    let open = span(robot.lower()).max(span(robot.upper()));
+    let width = (0..36)
+        .map(|k| {
+            let (s, c) = (k as f64 * 5f64.to_radians()).sin_cos();
+            let along = geo.mesh.vertices.iter().map(|v| c * v.x + s * v.y);
+            along.clone().fold(f64::NEG_INFINITY, f64::max) - along.fold(f64::INFINITY, f64::min)
+        })
+        .fold(f64::INFINITY, f64::min);
+    (open < width).then(|| {
+        format!(
+            " (its two fingers' pads open at most {:.0} mm apart and the object is {:.0} mm wide at its narrowest)",
+            open * 1e3,
+            width * 1e3
+        )
+    })
 }
 
 /// Which grasp candidate synthesis kept, and what it tried before it.

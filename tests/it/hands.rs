@@ -462,6 +462,11 @@ fn community_panda_gripper_synth_warp_and_physics() {
         "{}",
         stderr(&o)
     );
+    assert!(
+        stderr(&o).contains("open at most 80 mm apart and the object is 82 mm wide"),
+        "{}",
+        stderr(&o)
+    );
     assert!(!out.exists());
 }
 
@@ -521,4 +526,30 @@ fn synth_keeps_only_a_grasp_that_holds() {
         .to_string();
     assert!(err.contains("does not hold the object"), "{err}");
     assert!(err.contains("limit 30.0 mm"), "{err}");
+}
+
+/// A gripper whose jaws cannot span the object: the refusal names both widths, and nothing
+/// is written.
+#[test]
+fn synth_refusal_names_the_jaws_span_and_the_object_width() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("apple.demo.json");
+    let o = dexwarp(&[
+        "synth",
+        "--object",
+        "apple",
+        "--robot",
+        s(&repo("robots/parallel_gripper.urdf")),
+        "--motion",
+        "lift_place",
+        "--out",
+        s(&out),
+    ]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("pads open at most 80 mm apart and the object is 82 mm wide"),
+        "{err}"
+    );
+    assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
 }
