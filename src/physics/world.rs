@@ -264,6 +264,14 @@ impl ReplayWorld {
         }
     }
 
+    /// Sets the object's linear and angular velocity to zero (an object declared at rest).
+    pub fn stop_object(&mut self) {
+        if let Some(b) = self.world.bodies.get_mut(self.object) {
+            b.set_linvel(Default::default(), false);
+            b.set_angvel(Default::default(), false);
+        }
+    }
+
     /// Advances the simulation by one step.
     pub fn step(&mut self) {
         self.world.step_with_events(&self.hooks, &());
