@@ -88,7 +88,7 @@ pub struct ReplayWorld {
     pub object_collider: ColliderHandle,
     /// The hand colliders' contact skin [m].
     finger_skin_m: f64,
-    /// Drops the hand-object solver contacts that cannot act in the step.
+    /// The opt-in solver cut ([`Params::solver_contact_gap_m`]).
     hooks: SolverCut,
 }
 
@@ -437,22 +437,14 @@ impl PhysicsHooks for SolverCut {
                 .unwrap_or_default()
         };
         let (rb1, rb2) = (context.rigid_body1, context.rigid_body2);
-        let mut velocities = Vec::new();
-        if let Some(m) = context.rigid() {
-            let normal = *m.normal;
-            velocities.extend(m.solver_contacts.iter().map(|c| {
-                (body_velocity(rb2, c.anchor2) - body_velocity(rb1, c.anchor1)).dot(normal)
-            }));
-        }
-        let Some(m) = context.rigid_mut() else {
-            return;
-        };
-        let idle = m
-            .solver_contacts
-            .iter()
-            .zip(&velocities)
-            .all(|(c, closing)| c.dist >= self.gap_m && c.dist + closing * self.dt >= self.gap_m);
-        if idle {
+        let idle = context.rigid().is_some_and(|m| {
+            m.solver_contacts.iter().all(|c| {
+                let closing =
+                    (body_velocity(rb2, c.anchor2) - body_velocity(rb1, c.anchor1)).dot(*m.normal);
+                c.dist >= self.gap_m && c.dist + closing * self.dt >= self.gap_m
+            })
+        });
+        if idle && let Some(m) = context.rigid_mut() {
             m.solver_contacts.clear();
         }
     }
