@@ -293,7 +293,7 @@ pub fn synthesize(
 
 /// The grasp and the template it was solved from: the first candidate whose grasp IK
 /// succeeds on the object at `start` (with the support `table` as a barrier) and whose grasp
-/// holds the object in physics ([`hold_test`]), with what was tried. Fails naming every
+/// holds the object in physics ([`HoldTest`]), with what was tried. Fails naming every
 /// candidate and why it failed when none does.
 fn grasp_search(
     spec: &SynthSpec,
