@@ -212,18 +212,24 @@
 //! # Simulating less
 //!
 //! What the replay leaves out by default ([`Params::skip_rest`], [`Params::stop_after_drop`],
-//! `replay.rs`): spans where the object rests on a support with no hand link within reach
-//! (the approach, from frame 0, and the retreat), and everything after a decided drop. On
-//! the 17 built-in configs (contact IK at 3.5 mm, `scripts/physics_time.py`, dev builds,
-//! three runs each, medians, one idle 2-core machine) the physics time per trajectory went
-//! from a mean of 0.647 s to 0.575 s (1.12x; 0.80-1.30x per config, largest 1.18 s),
-//! 648-1,829 steps skipped per config (none on the teapot, whose hand is within reach of
-//! the pot from the first frame), teapot_pour_cups_wall stopped at frame 668 of 894, no
-//! verdict changed. The regression test replays its 23 trajectories both ways: every verdict,
-//! first reason and drop frame is the same, and where nothing is left out the per-frame
-//! figures are the same to the bit. It is far from the 3x the steps would need: the time is
-//! in the steps with a hand on the object, and the only large cut found there (the solver
-//! cut below) changes the figures.
+//! `replay.rs`): the spans after the release where the object rests with no hand link within
+//! reach, the rocking of an untouched object that has not settled after 1 s, and everything
+//! after a decided drop. On the 17 built-in configs (contact IK at 3.5 mm,
+//! `scripts/physics_time.py`, dev builds of 2eee92a and of this code, one run each in turn,
+//! one idle 2-core machine) the physics time per trajectory went from a mean of 0.582 s to
+//! 0.575 s (1.01x; 0.88-1.15x per config, within run-to-run noise; largest 1.20 s), 411-904
+//! steps skipped on the non-teapot configs (none on the teapot, whose hand stays within reach
+//! of the pot), teapot_pour_cups_wall stopped at frame 668 of 894, no verdict changed.
+//! `cargo bench --bench physics` (release, medians, same run): the 700-frame gripper pick and
+//! place 142.8 ms against 176.1 ms stepping every frame (616 of 5,592 steps skipped, 1.23x);
+//! the contact-heavy teapot demonstration 723 ms against 809 ms (no step skipped: the
+//! difference is the run's noise). The regression test replays its 23 trajectories both
+//! ways: every verdict, first reason and drop frame is the same, and where nothing is left
+//! out the per-frame figures are the same to the bit. This is far from a third of the cost:
+//! the time is in the steps with a hand on the object, and the one large cut found there
+//! (the solver cut below) changes the figures. Holding an untouched object from frame 0, or
+//! as soon as it settled, skipped more (up to 1,829 steps per config, 1.12x on the mean) but
+//! cost frying-pan grasps at the slip limit (see `replay.rs`), so it is not done.
 //!
 //! Contact recycling is off ([`Params::contact_recycling`], see [`world`]): stale recycled
 //! contacts let open gripper jaws sliding 10 mm beside a box push it 21 mm.
