@@ -239,13 +239,9 @@ fn committed(name: &str) -> (Input, Vec<String>) {
     )
 }
 
-/// The whole stage on a committed demonstration: the human hand with the teapot and the
-/// frying pan, the Allegro hand with the apple, the parallel gripper with the small box.
-/// The decomposition is cached after the first run (in the process), as in a batch.
-#[divan::bench(sample_count = 5, args = ["teapot", "frying_pan", "apple", "small_box"])]
-fn validate_committed_demo(bencher: divan::Bencher, name: &str) {
+/// `validate` of a committed demonstration under `params`, one run printed, then timed.
+fn bench_committed(bencher: divan::Bencher, name: &str, label: &str, params: &Params) {
     let (input, barriers) = committed(name);
-    let params = Params::default();
     let run = || {
         validate(
             &input.robot,
@@ -253,16 +249,17 @@ fn validate_committed_demo(bencher: divan::Bencher, name: &str) {
             &input.scene,
             &barriers,
             &input.mesh,
-            &params,
+            params,
             &Limits::default(),
         )
         .unwrap()
     };
     let report = run();
     eprintln!(
-        "{name}: {} ({} steps; replay {:.3} s, penetration {:.3} s, stability {:.3} s, one run)",
+        "{name} ({label}): {} ({} steps, {} skipped; replay {:.3} s, penetration {:.3} s, stability {:.3} s, one run)",
         report.verdict(),
         report.replay.steps,
+        report.replay.skipped_steps,
         report.timing_s.replay,
         report.timing_s.penetration,
         report.timing_s.stability
@@ -270,31 +267,17 @@ fn validate_committed_demo(bencher: divan::Bencher, name: &str) {
     bencher.bench_local(run);
 }
 
+/// The whole stage on a committed demonstration: the human hand with the teapot and the
+/// frying pan, the Allegro hand with the apple, the parallel gripper with the small box.
+/// The decomposition is cached after the first run (in the process), as in a batch.
+#[divan::bench(sample_count = 5, args = ["teapot", "frying_pan", "apple", "small_box"])]
+fn validate_committed_demo(bencher: divan::Bencher, name: &str) {
+    bench_committed(bencher, name, "default", &Params::default());
+}
+
 /// The contact-heavy case: the human hand pinching the teapot's handle (about 40 contact
 /// manifolds per step with the hand on it), with the defaults and with every step simulated.
 #[divan::bench(sample_count = 5, args = ["default", "every_step"])]
 fn teapot_contact_heavy(bencher: divan::Bencher, mode: &str) {
-    let (input, barriers) = committed("teapot");
-    let params = params(mode);
-    let run = || {
-        validate(
-            &input.robot,
-            &input.demo,
-            &input.scene,
-            &barriers,
-            &input.mesh,
-            &params,
-            &Limits::default(),
-        )
-        .unwrap()
-    };
-    let report = run();
-    eprintln!(
-        "teapot ({mode}): {} ({} steps, {} skipped; replay {:.3} s)",
-        report.verdict(),
-        report.replay.steps,
-        report.replay.skipped_steps,
-        report.timing_s.replay
-    );
-    bencher.bench_local(run);
+    bench_committed(bencher, "teapot", mode, &params(mode));
 }

@@ -490,11 +490,11 @@ fn run_replay(
         1.0 / (n as f64 * demo.fps),
         Vector3::from(params.gravity),
     )?;
-    let named_supports = named(supports);
     let shortcuts = replay::Shortcuts {
         rest: params.skip_rest,
-        rests_at_start: checks::nearest_support(object, &f0.object, &named_supports)
-            .is_some_and(|(_, gap)| gap <= params.support_gap_m),
+        rests_at_start: params.skip_rest
+            && checks::nearest_support(object, &f0.object, &named(supports))
+                .is_some_and(|(_, gap)| gap <= params.support_gap_m),
         drop: demo
             .contact_segment()
             .filter(|_| params.stop_after_drop)

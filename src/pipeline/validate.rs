@@ -35,6 +35,21 @@ pub fn validate(
     )
 }
 
+/// The hold test of the grasp recorded in the demonstration at `demo_path`
+/// ([`physics::hold`], `dexwarp validate --grasp-only`): loaded and bound to its robot as
+/// [`validate`] does; `None` when no frame has contacts.
+pub fn grasp_hold(
+    demo_path: &Path,
+    params: &physics::Params,
+    limits: &Limits,
+) -> Result<Option<physics::Stability>> {
+    let mut demo = Demo::load(demo_path, limits)?;
+    let robot = demo.load_robot(limits)?;
+    demo.check_robot(&robot)?;
+    let mesh = Mesh::load(&demo.object.mesh, nalgebra::Vector3::repeat(1.0), limits)?;
+    physics::hold(&robot, &demo, &mesh, params)
+}
+
 /// [`validate`] of a demonstration already in memory (the Python binding's entry point;
 /// [`validate`] ends here too); messages and the report's provenance name [`Demo::source`].
 pub fn validate_demo(

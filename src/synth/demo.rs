@@ -328,7 +328,7 @@ fn grasp_search(
         }
         Ok(out)
     };
-    let hold = HoldTest::new(object, &spec.hold, robot_path)?;
+    let hold = HoldTest::new(object, &geo.mesh, &spec.hold, robot_path)?;
     let mut queue: Vec<(&'static str, GraspTemplate)> = named
         .into_iter()
         .map(|t| ("the hand's template", t))
@@ -449,13 +449,13 @@ struct HoldTest {
 impl HoldTest {
     fn new(
         object: ObjectKind,
+        mesh: &Mesh,
         params: &crate::physics::Params,
         robot_path: &Path,
     ) -> Result<HoldTest> {
         params.check()?;
-        let params = params.clone();
-        let (shape, _) = crate::physics::object_shape(&object.mesh(), &params.decomposition)
-            .ok_or_else(|| {
+        let (shape, _) =
+            crate::physics::object_shape(mesh, &params.decomposition).ok_or_else(|| {
                 Error::invalid(
                     robot_path,
                     "(object)",
@@ -465,7 +465,7 @@ impl HoldTest {
         Ok(HoldTest {
             object: shape,
             mass: object.mass_kg(),
-            params,
+            params: params.clone(),
         })
     }
 

@@ -101,12 +101,7 @@ fn grasp(
     strict: bool,
     limits: &Limits,
 ) -> Result<()> {
-    let mut demo = dexwarp::model::Demo::load(demo_path, limits)?;
-    let robot = demo.load_robot(limits)?;
-    demo.check_robot(&robot)?;
-    let mesh =
-        dexwarp::geometry::Mesh::load(&demo.object.mesh, nalgebra::Vector3::repeat(1.0), limits)?;
-    let Some(hold) = dexwarp::physics::hold(&robot, &demo, &mesh, params)? else {
+    let Some(hold) = pipeline::grasp_hold(demo_path, params, limits)? else {
         anyhow::bail!(
             "{}: no frame has contacts, so there is no grasp to test",
             demo_path.display()
