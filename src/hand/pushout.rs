@@ -11,16 +11,36 @@
 //! any barrier or the sweep cap is hit (a narrow gap, reported with its frames). The wrist
 //! rotation and the joints are kept, so the whole hand moves rigidly with its wrist. Frames
 //! in the contact segment are the IK's (or the baseline's) and are never moved here.
+//!
+//! A ball about the wrist does not hold the fingers: a long-fingered hand (an Allegro's reach
+//! far past 5 cm) sweeps a fingertip through a cup beside the object on the approach while
+//! its wrist stays clear. The link pass follows the ball pass: at every frame outside
+//! contact each link's collision shapes are placed by forward kinematics and queried against
+//! every barrier's shape (parry contacts); where a link comes closer than
+//! [`Params::link_clearance_m`] the wrist is moved along the contact normal, away from the
+//! barrier, until every link keeps the clearance. A push fades into the neighbouring frames
+//! over [`Params::blend_frames`] `W` (a push of `d` at frame `s` asks `d · (1 − |t − s|/(W + 1))`
+//! of frame `t`, the largest ask wins; toward the contact segment, whose poses are never
+//! moved, the ask reaches 0 at the segment's first or last frame when that is nearer), so the
+//! wrist path has no step where a push starts or where the approach meets the grasp; the
+//! passes repeat until no link is closer than the clearance or the sweep cap is hit (then
+//! the frames still inside a barrier are reported as a narrow gap). Only a push of the very
+//! frame next to the contact segment shows as a step there.
 
 use std::time::Instant;
 
-use nalgebra::Point3;
+use nalgebra::{Isometry3, Point3, Translation3, Vector3};
+use rapier3d_f64::parry::bounding_volume::{Aabb, BoundingVolume};
+use rapier3d_f64::parry::query;
 use serde::{Deserialize, Serialize};
 
 use super::HandPath;
+use crate::geometry::shape::CollisionShape;
+use crate::math::convert::to_pose;
 use crate::model::PushoutMode;
-use crate::model::config::DEFAULT_HAND_RADIUS_M;
+use crate::model::config::{DEFAULT_HAND_CLEARANCE_M, DEFAULT_HAND_RADIUS_M};
 use crate::model::report::NarrowGap;
+use crate::robot::Robot;
 use crate::warp::WarpPlan;
 use crate::warp::barrier::Barrier;
 
@@ -37,6 +57,12 @@ pub struct Params {
     pub step_m: f64,
     /// Most sweeps over all barriers before declaring a narrow gap. Default 64.
     pub max_sweeps: usize,
+    /// Clearance every link of the hand keeps from every barrier outside contact, the link
+    /// pass (see the module docs) [m]; 0 turns the link pass off. Default 0.002.
+    pub link_clearance_m: f64,
+    /// Frames over which a link-pass push fades into its neighbours. Default 15 (0.5 s at
+    /// 30 fps).
+    pub blend_frames: usize,
 }
 
 impl Default for Params {
@@ -46,6 +72,8 @@ impl Default for Params {
             mode: PushoutMode::Paper,
             step_m: 0.002,
             max_sweeps: 64,
+            link_clearance_m: DEFAULT_HAND_CLEARANCE_M,
+            blend_frames: 15,
         }
     }
 }
@@ -63,34 +91,77 @@ pub struct Stats {
     pub max_push_m: f64,
     /// Set when the sweep cap was hit (output frames).
     pub narrow_gap: Option<NarrowGap>,
+    /// Link clearance used [m].
+    pub link_clearance_m: f64,
+    /// Link pass: sweeps (0 when off, without barriers, or when no link came too close).
+    pub link_sweeps: usize,
+    /// Link pass: output frames whose wrist it moved.
+    pub link_frames_moved: usize,
+    /// Smallest distance from any hand link to any barrier outside contact after the
+    /// push-out [m] (negative: penetrating) where one is within the link clearance; `None`
+    /// when every link keeps the clearance everywhere, or the link pass is off.
+    pub min_link_clearance_m: Option<f64>,
     /// Wall time [s].
     pub time_s: f64,
 }
 
-/// Pushes the wrist of every output frame outside the contact segment out of `barriers`
-/// (prepared with the hand radius, [`Barrier::from_points`]); returns the hand and the stats.
+/// The barriers of the hand push-out: their hulls inflated by the hand radius for the ball
+/// pass ([`Barrier::from_points`]) and their shapes for the link pass, in the same order.
+#[derive(Clone, Copy, Debug)]
+pub struct Barriers<'a> {
+    /// The barriers' names (the config's `barriers`).
+    pub names: &'a [String],
+    /// Hulls inflated by [`Params::radius_m`]; empty when the ball pass is off.
+    pub hulls: &'a [Barrier],
+    /// World-frame shapes ([`crate::pipeline::barriers::shapes`]).
+    pub shapes: &'a [CollisionShape],
+}
+
+/// Pushes the hand of every output frame outside the contact segment out of `barriers`:
+/// the wrist ball, then every link (see the module docs); returns the hand and the stats.
 pub fn run(
     mut hand: HandPath,
     plan: &WarpPlan,
-    barriers: &[Barrier],
+    robot: &Robot,
+    barriers: Barriers<'_>,
     params: &Params,
 ) -> (HandPath, Stats) {
     let clock = Instant::now();
     let mut stats = Stats {
         radius_m: params.radius_m,
+        link_clearance_m: params.link_clearance_m,
         ..Stats::default()
     };
-    if params.radius_m <= 0.0 || barriers.is_empty() {
-        stats.time_s = clock.elapsed().as_secs_f64();
-        return (hand, stats);
-    }
     let (c0, t_end) = (plan.segment.start, plan.t_end_new());
     let n = hand.len();
-    let frames: Vec<usize> = (0..c0.min(n)).chain((t_end + 1).min(n)..n).collect();
-    let before: Vec<Point3<f64>> = frames
-        .iter()
-        .map(|&t| Point3::from(hand.wrists[t].translation.vector))
-        .collect();
+    let spans = [0..c0.min(n), (t_end + 1).min(n)..n];
+    let before: Vec<Vector3<f64>> = hand.wrists.iter().map(|w| w.translation.vector).collect();
+    if params.radius_m > 0.0 && !barriers.hulls.is_empty() {
+        ball_pass(&mut hand, &spans, barriers.hulls, params, &mut stats);
+    }
+    if params.link_clearance_m > 0.0 && !barriers.shapes.is_empty() {
+        link_pass(&mut hand, &spans, robot, barriers, params, &mut stats);
+    }
+    for (w, p0) in hand.wrists.iter().zip(&before) {
+        let d = (w.translation.vector - p0).norm();
+        if d > 0.0 {
+            stats.frames_moved += 1;
+            stats.max_push_m = stats.max_push_m.max(d);
+        }
+    }
+    stats.time_s = clock.elapsed().as_secs_f64();
+    (hand, stats)
+}
+
+/// The wrist as a ball of radius `params.radius_m` out of the inflated hulls.
+fn ball_pass(
+    hand: &mut HandPath,
+    spans: &[std::ops::Range<usize>; 2],
+    barriers: &[Barrier],
+    params: &Params,
+    stats: &mut Stats,
+) {
+    let frames: Vec<usize> = spans.iter().flat_map(|r| r.clone()).collect();
     let mut converged = false;
     for sweep in 1..=params.max_sweeps.max(1) {
         stats.sweeps = sweep;
@@ -108,13 +179,6 @@ pub fn run(
         if !any {
             converged = true;
             break;
-        }
-    }
-    for (&t, p0) in frames.iter().zip(&before) {
-        let d = (hand.wrists[t].translation.vector - p0.coords).norm();
-        if d > 0.0 {
-            stats.frames_moved += 1;
-            stats.max_push_m = stats.max_push_m.max(d);
         }
     }
     if !converged {
@@ -136,15 +200,309 @@ pub fn run(
         }
         stats.narrow_gap = Some(gap);
     }
-    stats.time_s = clock.elapsed().as_secs_f64();
-    (hand, stats)
+}
+
+/// The share of frame `s`'s push asked of frame `t`: 1 at `s`, falling linearly to 0 at
+/// `w + 1` frames, or at the contact frame `contact` when that is nearer on `t`'s side (the
+/// contact segment's poses are not moved, so the approach meets them without a step).
+fn fade(t: usize, s: usize, contact: usize, w: usize) -> f64 {
+    let toward_contact = (contact > s) == (t > s) && t != s;
+    let reach = if toward_contact {
+        (w + 1).min(contact.abs_diff(s))
+    } else {
+        w + 1
+    };
+    (1.0 - t.abs_diff(s) as f64 / reach as f64).max(0.0)
+}
+
+/// Most wrist moves per frame and sweep of the link pass (each closes the worst gap).
+const LINK_STEPS: usize = 8;
+
+/// Every link kept `params.link_clearance_m` from every barrier shape (see the module docs).
+fn link_pass(
+    hand: &mut HandPath,
+    spans: &[std::ops::Range<usize>; 2],
+    robot: &Robot,
+    barriers: Barriers<'_>,
+    params: &Params,
+    stats: &mut Stats,
+) {
+    let links = LinkClearance::new(robot, barriers.shapes, params.link_clearance_m);
+    let w = params.blend_frames;
+    // The contact frame each span meets: the approach the segment's first, the retreat its
+    // last.
+    let contact_frames = [spans[0].end, spans[1].start.saturating_sub(1)];
+    let mut poses = robot.new_link_poses();
+    let mut push = vec![Vector3::zeros(); hand.len()];
+    let mut moved = vec![false; hand.len()];
+    for sweep in 1..=params.max_sweeps.max(1) {
+        let mut any = false;
+        for span in spans {
+            for t in span.clone() {
+                robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut poses);
+                push[t] = links.push(&mut poses);
+                any |= push[t] != Vector3::zeros();
+            }
+        }
+        if !any {
+            break;
+        }
+        stats.link_sweeps = sweep;
+        for (span, &contact) in spans.iter().zip(&contact_frames) {
+            for t in span.clone() {
+                // The largest ask of the frames within `w` on this side of the contact segment.
+                let lo = t.saturating_sub(w).max(span.start);
+                let hi = (t + w).min(span.end.saturating_sub(1));
+                let mut best = Vector3::zeros();
+                for s in lo..=hi {
+                    let ask = push[s] * fade(t, s, contact, w);
+                    if ask.norm_squared() > best.norm_squared() {
+                        best = ask;
+                    }
+                }
+                if best != Vector3::zeros() {
+                    hand.wrists[t].translation.vector += best;
+                    moved[t] = true;
+                }
+            }
+        }
+    }
+    stats.link_frames_moved = moved.iter().filter(|&&m| m).count();
+    // Where the hand ends up: the smallest distance, and the frames still inside a barrier.
+    let mut gap = NarrowGap::default();
+    for span in spans {
+        for t in span.clone() {
+            robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut poses);
+            let Some((d, _, b)) = links.nearest(&poses) else {
+                continue;
+            };
+            stats.min_link_clearance_m = Some(stats.min_link_clearance_m.map_or(d, |m| m.min(d)));
+            if d < 0.0 {
+                gap.frames.push(t);
+                if !gap.barriers.contains(&barriers.names[b]) {
+                    gap.barriers.push(barriers.names[b].clone());
+                }
+            }
+        }
+    }
+    if !gap.frames.is_empty() {
+        if let Some(ball) = stats.narrow_gap.take() {
+            gap.frames.extend(ball.frames);
+            gap.frames.sort_unstable();
+            gap.frames.dedup();
+            for b in ball.barriers {
+                if !gap.barriers.contains(&b) {
+                    gap.barriers.push(b);
+                }
+            }
+        }
+        stats.narrow_gap = Some(gap);
+    }
+}
+
+/// The hand's link shapes against the barrier shapes, with bounding boxes for culling.
+struct LinkClearance<'a> {
+    /// `(link index, shape)` for every collision shape of the hand.
+    hand: Vec<(usize, &'a CollisionShape)>,
+    barriers: Vec<(Aabb, &'a CollisionShape)>,
+    clearance: f64,
+}
+
+impl<'a> LinkClearance<'a> {
+    fn new(robot: &'a Robot, barriers: &'a [CollisionShape], clearance: f64) -> Self {
+        let hand = robot
+            .links()
+            .iter()
+            .enumerate()
+            .flat_map(|(i, l)| l.collision.iter().map(move |cs| (i, cs)))
+            .collect();
+        let barriers = barriers
+            .iter()
+            .map(|b| (b.shape.compute_aabb(&to_pose(&b.shape_pose)), b))
+            .collect();
+        LinkClearance {
+            hand,
+            barriers,
+            clearance,
+        }
+    }
+
+    /// The smallest link-barrier distance (negative: penetrating) within the clearance, with
+    /// the world normal pointing from the barrier to the link and the barrier's index.
+    fn nearest(&self, poses: &[Isometry3<f64>]) -> Option<(f64, Vector3<f64>, usize)> {
+        let mut best: Option<(f64, Vector3<f64>, usize)> = None;
+        for &(link, cs) in &self.hand {
+            let pose = to_pose(&(poses[link] * cs.shape_pose));
+            let aabb = cs.shape.compute_aabb(&pose).loosened(self.clearance);
+            for (j, (bb, barrier)) in self.barriers.iter().enumerate() {
+                if !aabb.intersects(bb) {
+                    continue;
+                }
+                let bpose = to_pose(&barrier.shape_pose);
+                // Unsupported pairs (none among the shapes URDFs and scenes give) are skipped.
+                let Ok(Some(c)) = query::contact(
+                    &pose,
+                    cs.shape.as_ref(),
+                    &bpose,
+                    barrier.shape.as_ref(),
+                    self.clearance,
+                ) else {
+                    continue;
+                };
+                if best.is_none_or(|b| c.dist < b.0) {
+                    let n1 = c.normal1;
+                    best = Some((c.dist, -Vector3::new(n1.x, n1.y, n1.z), j));
+                }
+            }
+        }
+        best
+    }
+
+    /// The wrist translation that gives every link the clearance (zero when it has it).
+    /// Moves `poses` along.
+    fn push(&self, poses: &mut [Isometry3<f64>]) -> Vector3<f64> {
+        let mut total = Vector3::zeros();
+        for _ in 0..LINK_STEPS {
+            let Some((d, n, _)) = self.nearest(poses) else {
+                break;
+            };
+            // A micrometre past the clearance, so the next query does not find it again.
+            let gap = self.clearance - d;
+            if gap <= 1e-6 {
+                break;
+            }
+            let m = n * (gap + 1e-6);
+            total += m;
+            for p in poses.iter_mut() {
+                *p = Translation3::from(m) * *p;
+            }
+        }
+        total
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::model::ContactSegment;
-    use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+    use nalgebra::UnitQuaternion;
+
+    /// A 4 cm palm and one 14 cm finger hanging below it (one revolute joint).
+    fn one_finger() -> Robot {
+        let urdf = r#"<robot name="t">
+            <link name="palm"><collision><geometry><box size="0.04 0.04 0.04"/></geometry></collision></link>
+            <link name="finger"><collision><origin xyz="0 0 -0.07"/><geometry><box size="0.01 0.01 0.14"/></geometry></collision></link>
+            <joint name="j" type="revolute"><parent link="palm"/><child link="finger"/><origin xyz="0 0 -0.02"/>
+              <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#;
+        Robot::from_urdf_str(
+            urdf,
+            std::path::Path::new("."),
+            std::path::Path::new("test.urdf"),
+            &crate::Limits::default(),
+        )
+        .unwrap()
+    }
+
+    /// The hulls alone (the ball pass), without names or shapes.
+    fn hulls(hulls: &[Barrier]) -> Barriers<'_> {
+        Barriers {
+            names: &[],
+            hulls,
+            shapes: &[],
+        }
+    }
+
+    /// A hand moving along x at z = 0 with its finger reaching to z = -0.16, over a 10 cm box
+    /// whose top is at z = -0.15, before contact: the wrist is 15 cm from the box, so the ball
+    /// pass leaves it, and the fingertip would go 1 cm into it. The link pass lifts the approach
+    /// until the finger keeps the clearance, fades the lift into the neighbouring frames (no
+    /// step in the wrist path), and leaves the contact segment alone.
+    #[test]
+    fn the_link_pass_keeps_a_long_finger_out_of_a_barrier_the_wrist_ball_misses() {
+        let n = 60;
+        let segment = ContactSegment {
+            start: 25,
+            end: 35,
+            gap_frames: 0,
+        };
+        let positions: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new(-0.3 + 0.01 * i as f64, 0.0, 0.0))
+            .collect();
+        let plan = WarpPlan::identity(&positions, segment);
+        let robot = one_finger();
+        let mut hand = HandPath::with_capacity(n, robot.dof());
+        for p in &positions {
+            hand.push(
+                Isometry3::from_parts(Translation3::from(*p), UnitQuaternion::identity()),
+                &vec![0.0; robot.dof()],
+            );
+        }
+        let center = Vector3::new(-0.2, 0.0, -0.2);
+        let shape = CollisionShape::new(
+            crate::geometry::shape::ShapeKind::Box {
+                size: Vector3::repeat(0.1),
+            },
+            Isometry3::from_parts(Translation3::from(center), UnitQuaternion::identity()),
+        )
+        .unwrap();
+        let names = ["box".to_string()];
+        let params = Params::default();
+        let hull =
+            [Barrier::from_points("box", &box_points(center, 0.05), params.radius_m).unwrap()];
+        let shapes = [shape];
+        let barriers = Barriers {
+            names: &names,
+            hulls: &hull,
+            shapes: &shapes,
+        };
+        // Before: the finger is inside the box, the wrist far outside its inflated hull.
+        let links = LinkClearance::new(&robot, &shapes, params.link_clearance_m);
+        let mut poses = robot.new_link_poses();
+        robot.forward_kinematics(&hand.wrists[10], hand.q(10), &mut poses);
+        let (d, _, _) = links.nearest(&poses).unwrap();
+        assert!((d + 0.01).abs() < 1e-6, "fingertip depth {d}");
+
+        let (out, stats) = run(hand.clone(), &plan, &robot, barriers, &params);
+        assert_eq!(stats.sweeps, 1, "the ball pass moved nothing: {stats:?}");
+        assert!(
+            stats.link_frames_moved > 0 && stats.narrow_gap.is_none(),
+            "{stats:?}"
+        );
+        // 1 cm deep plus the clearance, a little more where pushes of neighbours add up.
+        assert!((0.012..0.015).contains(&stats.max_push_m), "{stats:?}");
+        for t in 0..n {
+            robot.forward_kinematics(&out.wrists[t], out.q(t), &mut poses);
+            if let Some((d, _, _)) = links.nearest(&poses) {
+                assert!(d >= params.link_clearance_m - 1e-6, "frame {t}: {d}");
+            }
+            if (25..=35).contains(&t) {
+                assert_eq!(out.wrists[t], hand.wrists[t], "contact frame {t} moved");
+            }
+        }
+        // The push fades in and out: each sweep steps a frame by at most its push over
+        // blend_frames + 1, or over the 10 frames from the box's last frame (15) to the
+        // contact segment (25); two sweeps ran, so no step is above twice that share of the
+        // largest push (unfaded, the wrist would step by the whole 12 mm).
+        let lift: Vec<f64> = (0..n)
+            .map(|t| (out.wrists[t].translation.vector - positions[t]).norm())
+            .collect();
+        assert_eq!(stats.link_sweeps, 2);
+        let share = 2.0 * stats.max_push_m / (params.blend_frames + 1).min(10) as f64;
+        for t in 1..n {
+            assert!(
+                (lift[t] - lift[t - 1]).abs() <= share + 1e-9,
+                "frame {t}: the wrist steps {} m",
+                lift[t] - lift[t - 1]
+            );
+        }
+        // With the link pass off, the finger stays in the box.
+        let off = Params {
+            link_clearance_m: 0.0,
+            ..params
+        };
+        let (_, stats) = run(hand, &plan, &robot, barriers, &off);
+        assert_eq!((stats.frames_moved, stats.min_link_clearance_m), (0, None));
+    }
 
     fn box_points(center: Vector3<f64>, half: f64) -> Vec<Point3<f64>> {
         let mut v = Vec::new();
@@ -188,7 +546,8 @@ mod tests {
             Barrier::from_points("b", &box_points(Vector3::new(0.2, 0.0, 0.0), 0.05), 0.05)
                 .unwrap(),
         ];
-        let (out, stats) = run(hand.clone(), &plan, &barriers, &params);
+        let robot = one_finger();
+        let (out, stats) = run(hand.clone(), &plan, &robot, hulls(&barriers), &params);
         assert!(stats.narrow_gap.is_none());
         assert!(stats.frames_moved > 0, "nothing moved: {stats:?}");
         for t in 0..n {
@@ -231,7 +590,13 @@ mod tests {
             radius_m: 0.0,
             ..Params::default()
         };
-        let (out, stats) = run(hand.clone(), &plan, &[b], &params);
+        let hulls = [b];
+        let barriers = Barriers {
+            names: &[],
+            hulls: &hulls,
+            shapes: &[],
+        };
+        let (out, stats) = run(hand.clone(), &plan, &one_finger(), barriers, &params);
         assert_eq!(out, hand);
         assert_eq!(stats.frames_moved, 0);
     }

@@ -45,6 +45,9 @@ pub struct WaypointJson {
 /// Default bounding radius of the hand about the wrist for its barrier push-out [m].
 pub const DEFAULT_HAND_RADIUS_M: f64 = 0.05;
 
+/// Default clearance every hand link keeps from the barriers outside contact [m].
+pub const DEFAULT_HAND_CLEARANCE_M: f64 = 0.002;
+
 /// Tunable parameters of a warp, with the paper's defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -88,6 +91,9 @@ pub struct WarpParams {
     /// Bounding radius of the hand about the wrist for the hand's barrier push-out outside
     /// the contact segment [m] (`hand::pushout`); 0 turns it off. Default 0.05.
     pub hand_radius_m: f64,
+    /// Clearance every link of the hand keeps from every barrier outside the contact segment,
+    /// the hand push-out's link pass [m] (`hand::pushout`); 0 turns it off. Default 0.002.
+    pub hand_clearance_m: f64,
     /// Output frame of the end of the contact segment; by default the input's end shifted by
     /// the last waypoint's time shift.
     pub end_t_new: Option<f64>,
@@ -114,6 +120,7 @@ impl Default for WarpParams {
             retime: RetimeMode::Chord,
             continuous_speed: true,
             hand_radius_m: DEFAULT_HAND_RADIUS_M,
+            hand_clearance_m: DEFAULT_HAND_CLEARANCE_M,
             end_t_new: None,
             physics: None,
         }
@@ -244,47 +251,7 @@ impl WarpConfig {
             .end
             .map(|s| c.world_vec3(|| "end".into(), s))
             .transpose()?;
-        let p = &file.params;
-        // Ranges: beyond them a parameter only makes sense as a typo, and some set work
-        // (the push-out walks its ray in steps of `pushout_step_m`).
-        c.in_range(|| "params.alpha_m".into(), p.alpha_m, (1e-6, 1e3), "m")?;
-        c.in_range(
-            || "params.threshold_mm".into(),
-            p.threshold_mm,
-            (1e-3, 1e4),
-            "mm",
-        )?;
-        c.in_range(|| "params.margin_m".into(), p.margin_m, (1e-6, 10.0), "m")?;
-        c.in_range(
-            || "params.steepness".into(),
-            p.steepness,
-            (1e-3, 100.0),
-            "exponent",
-        )?;
-        c.in_range(
-            || "params.pushout_step_m".into(),
-            p.pushout_step_m,
-            (1e-5, 1.0),
-            "m",
-        )?;
-        c.in_range(
-            || "params.penetration_weight".into(),
-            p.penetration_weight,
-            (0.0, 1e6),
-            "weight",
-        )?;
-        if let Some(tol) = p.penetration_tolerance_mm {
-            c.in_range(
-                || "params.penetration_tolerance_mm".into(),
-                tol,
-                (0.01, 100.0),
-                "mm",
-            )?;
-        }
-        c.non_negative(|| "params.hand_radius_m".into(), p.hand_radius_m, "m")?;
-        if let Some(e) = p.end_t_new {
-            frame_index(&c, || "params.end_t_new".into(), e, "output")?;
-        }
+        check_params(&c, &file.params)?;
         Ok(WarpConfig {
             name: file.name,
             description: file.description,
@@ -466,4 +433,54 @@ pub fn auto_penetration_tolerance_mm(original_mm: f64) -> f64 {
     } else {
         1.0
     }
+}
+
+/// The ranges of a config's `params`: beyond them a parameter only makes sense as a typo, and
+/// some set work (the push-out walks its ray in steps of `pushout_step_m`).
+fn check_params(c: &FieldCheck, p: &WarpParams) -> Result<()> {
+    c.in_range(|| "params.alpha_m".into(), p.alpha_m, (1e-6, 1e3), "m")?;
+    c.in_range(
+        || "params.threshold_mm".into(),
+        p.threshold_mm,
+        (1e-3, 1e4),
+        "mm",
+    )?;
+    c.in_range(|| "params.margin_m".into(), p.margin_m, (1e-6, 10.0), "m")?;
+    c.in_range(
+        || "params.steepness".into(),
+        p.steepness,
+        (1e-3, 100.0),
+        "exponent",
+    )?;
+    c.in_range(
+        || "params.pushout_step_m".into(),
+        p.pushout_step_m,
+        (1e-5, 1.0),
+        "m",
+    )?;
+    c.in_range(
+        || "params.penetration_weight".into(),
+        p.penetration_weight,
+        (0.0, 1e6),
+        "weight",
+    )?;
+    if let Some(tol) = p.penetration_tolerance_mm {
+        c.in_range(
+            || "params.penetration_tolerance_mm".into(),
+            tol,
+            (0.01, 100.0),
+            "mm",
+        )?;
+    }
+    c.non_negative(|| "params.hand_radius_m".into(), p.hand_radius_m, "m")?;
+    c.in_range(
+        || "params.hand_clearance_m".into(),
+        p.hand_clearance_m,
+        (0.0, 0.05),
+        "m",
+    )?;
+    if let Some(e) = p.end_t_new {
+        frame_index(&c, || "params.end_t_new".into(), e, "output")?;
+    }
+    Ok(())
 }

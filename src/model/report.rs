@@ -115,6 +115,18 @@ pub struct Constraints {
     /// The hand push-out's narrow-gap failure (output frames), when it happened.
     #[serde(default)]
     pub hand_narrow_gap: Option<NarrowGap>,
+    /// Clearance every hand link keeps from the barriers outside contact (the push-out's
+    /// link pass) [mm]; 0 when off.
+    #[serde(default)]
+    pub hand_clearance_mm: f64,
+    /// Output frames outside contact the link pass moved (counted in
+    /// `hand_pushout_frames_moved` too).
+    #[serde(default)]
+    pub hand_link_frames_moved: usize,
+    /// Smallest hand-link-to-barrier distance outside contact after the push-out [mm], where
+    /// a link is within `hand_clearance_mm` of a barrier; null when every link keeps it.
+    #[serde(default)]
+    pub hand_min_barrier_distance_mm: Option<f64>,
     /// In-contact input frames without correspondences (the segment is treated as one).
     pub contact_gap_frames: usize,
 }

@@ -6,26 +6,33 @@
 use crate::geometry::shape::CollisionShape;
 use crate::hand::{HandPath, pushout};
 use crate::model::{Scene, WarpConfig};
+use crate::robot::Robot;
 use crate::warp::ObjectWarp;
 use crate::warp::barrier::Barrier;
 use crate::{Error, Limits, Result};
 
 /// Stage 4b: the barriers inflated by the hand radius, and the hand push-out outside the
-/// contact segment ([`pushout`]).
+/// contact segment ([`pushout`]): the wrist ball, then every link against the shapes.
 pub(super) fn hand_pushout(
     config: &WarpConfig,
     scene: &Scene,
+    robot: &Robot,
     shapes: &[CollisionShape],
     object: &ObjectWarp,
     hand: HandPath,
     params: &pushout::Params,
 ) -> Result<(HandPath, pushout::Stats)> {
-    let barriers = if params.radius_m > 0.0 {
+    let hulls = if params.radius_m > 0.0 {
         pushout_hulls(config, scene, shapes, params.radius_m)?
     } else {
         Vec::new()
     };
-    Ok(pushout::run(hand, &object.plan, &barriers, params))
+    let barriers = pushout::Barriers {
+        names: &config.barriers,
+        hulls: &hulls,
+        shapes,
+    };
+    Ok(pushout::run(hand, &object.plan, robot, barriers, params))
 }
 
 /// The barriers a config names, as world-frame collision shapes, in the config's order.

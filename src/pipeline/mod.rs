@@ -204,6 +204,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     let (mut hand, hand_push) = barriers::hand_pushout(
         config,
         scene,
+        robot,
         &barrier_shapes,
         &object,
         hand,

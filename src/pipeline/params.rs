@@ -130,6 +130,7 @@ impl StageParams {
             radius_m: p.hand_radius_m,
             mode: p.pushout,
             step_m: p.pushout_step_m,
+            link_clearance_m: p.hand_clearance_m,
             ..pushout::Params::default()
         };
         let physics = match &options.physics {

@@ -78,6 +78,10 @@ pub(super) fn warp_report(
     report.constraints.hand_pushout_frames_moved = hand_push.frames_moved;
     report.constraints.hand_pushout_max_mm = hand_push.max_push_m * 1e3;
     report.constraints.hand_narrow_gap = hand_push.narrow_gap.clone();
+    report.constraints.hand_clearance_mm = hand_push.link_clearance_m * 1e3;
+    report.constraints.hand_link_frames_moved = hand_push.link_frames_moved;
+    report.constraints.hand_min_barrier_distance_mm =
+        hand_push.min_link_clearance_m.map(|d| d * 1e3);
     report.config = Some(config.source.display().to_string());
     report.threshold_mm = Some(threshold_mm);
     report.hand = Some(options.hand.as_str().into());
