@@ -480,7 +480,7 @@ fn check_params(c: &FieldCheck, p: &WarpParams) -> Result<()> {
         "m",
     )?;
     if let Some(e) = p.end_t_new {
-        frame_index(&c, || "params.end_t_new".into(), e, "output")?;
+        frame_index(c, || "params.end_t_new".into(), e, "output")?;
     }
     Ok(())
 }
