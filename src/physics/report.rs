@@ -92,6 +92,40 @@ pub struct Stability {
     pub dt_s: f64,
 }
 
+/// The grasp carried: the contact segment replayed with the hand on its recorded poses and
+/// the object's supports taken away ([`super::carry`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Carry {
+    /// The contact segment's first and last frame (frames of the demonstration).
+    pub first_frame: usize,
+    pub last_frame: usize,
+    /// Frames replayed (fewer than the segment's when the object dropped and the replay
+    /// stopped).
+    pub frames_replayed: usize,
+    /// The object's pose against the recorded one over the replayed frames (frames of the
+    /// demonstration).
+    pub tracking: Tracking,
+}
+
+/// The grasp hold test ([`super::hold`], `validate --grasp-only`, and `synth`'s choice of
+/// grasp): the hand frozen at sampled contact frames, and the hand carrying the object.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GraspHold {
+    /// The hand frozen at sampled contact frames, the object released without support.
+    pub stability: Stability,
+    /// The contact segment replayed without supports.
+    pub carry: Carry,
+    /// Every limit the two break, as sentences; empty when the grasp holds.
+    pub reasons: Vec<String>,
+}
+
+impl GraspHold {
+    /// True when the grasp holds the object both frozen and carried.
+    pub fn holds(&self) -> bool {
+        self.reasons.is_empty()
+    }
+}
+
 /// The object after the last contact frame.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Release {

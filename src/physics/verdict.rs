@@ -1,7 +1,7 @@
 //! The verdict: every failed check as a sentence naming the frame and the value.
 
 use super::params::Params;
-use super::report::{DropCause, Penetration, PhysicsReport};
+use super::report::{Carry, DropCause, Penetration, PhysicsReport, Stability, Tracking};
 
 /// The reasons `report` fails under `params`, in a fixed order: divergence, drop, tracking,
 /// penetration (hand-object, hand-barrier, object-barrier), stability, release.
@@ -29,31 +29,7 @@ pub(crate) fn reasons(report: &PhysicsReport, params: &Params) -> Vec<String> {
             ),
         });
     }
-    let t = &report.tracking;
-    if t.mean_position_error_mm > params.max_mean_position_error_m * 1e3 {
-        out.push(format!(
-            "mean object position error {:.1} mm > {:.1} mm",
-            t.mean_position_error_mm,
-            params.max_mean_position_error_m * 1e3
-        ));
-    }
-    if t.max_position_error_mm > params.max_position_error_m * 1e3 {
-        out.push(format!(
-            "object position error {:.1} mm at frame {} > {:.1} mm",
-            t.max_position_error_mm,
-            t.max_position_error_frame,
-            params.max_position_error_m * 1e3
-        ));
-    }
-    if t.mean_rotation_error_deg > params.max_mean_rotation_error_deg {
-        out.push(format!(
-            "mean object rotation error {:.1}° > {:.1}° (largest {:.1}° at frame {})",
-            t.mean_rotation_error_deg,
-            params.max_mean_rotation_error_deg,
-            t.max_rotation_error_deg,
-            t.max_rotation_error_frame
-        ));
-    }
+    out.extend(tracking(&report.tracking, params));
     let p = &report.penetration;
     penetration(&mut out, "hand-object", &p.hand_object);
     penetration(&mut out, "hand-barrier", &p.hand_barrier);
@@ -98,4 +74,66 @@ fn penetration(out: &mut Vec<String>, what: &str, p: &Penetration) {
             p.frames_over_limit
         ));
     }
+}
+
+/// The tracking limits `t` breaks, as sentences.
+fn tracking(t: &Tracking, params: &Params) -> Vec<String> {
+    let mut out = Vec::new();
+    if t.mean_position_error_mm > params.max_mean_position_error_m * 1e3 {
+        out.push(format!(
+            "mean object position error {:.1} mm > {:.1} mm",
+            t.mean_position_error_mm,
+            params.max_mean_position_error_m * 1e3
+        ));
+    }
+    if t.max_position_error_mm > params.max_position_error_m * 1e3 {
+        out.push(format!(
+            "object position error {:.1} mm at frame {} > {:.1} mm",
+            t.max_position_error_mm,
+            t.max_position_error_frame,
+            params.max_position_error_m * 1e3
+        ));
+    }
+    if t.mean_rotation_error_deg > params.max_mean_rotation_error_deg {
+        out.push(format!(
+            "mean object rotation error {:.1}° > {:.1}° (largest {:.1}° at frame {})",
+            t.mean_rotation_error_deg,
+            params.max_mean_rotation_error_deg,
+            t.max_rotation_error_deg,
+            t.max_rotation_error_frame
+        ));
+    }
+    out
+}
+
+/// The reasons a grasp fails the hold test: the frozen hand lets the object move past
+/// [`Params::max_sim_displacement_m`], or the carried object drops (position error past
+/// [`Params::drop_error_m`]) or breaks the replay's tracking limits.
+pub(crate) fn hold(stability: &Stability, carry: &Carry, params: &Params) -> Vec<String> {
+    let mut out = Vec::new();
+    if stability.max_mm > params.max_sim_displacement_m * 1e3 {
+        out.push(format!(
+            "with the hand frozen the object moves {:.1} mm at frame {} > {:.1} mm (mean {:.1} mm over {} sampled frames)",
+            stability.max_mm,
+            stability.max_frame.unwrap_or(0),
+            params.max_sim_displacement_m * 1e3,
+            stability.mean_mm,
+            stability.frames.len()
+        ));
+    }
+    let t = &carry.tracking;
+    if t.max_position_error_mm > params.drop_error_m * 1e3 {
+        out.push(format!(
+            "carried, the object drops out of the grasp at frame {}: position error {:.1} mm > {:.1} mm",
+            t.max_position_error_frame,
+            t.max_position_error_mm,
+            params.drop_error_m * 1e3
+        ));
+    }
+    out.extend(
+        tracking(t, params)
+            .into_iter()
+            .map(|r| format!("carried, {r}")),
+    );
+    out
 }

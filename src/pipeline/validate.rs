@@ -42,7 +42,7 @@ pub fn grasp_hold(
     demo_path: &Path,
     params: &physics::Params,
     limits: &Limits,
-) -> Result<Option<physics::Stability>> {
+) -> Result<Option<physics::GraspHold>> {
     let mut demo = Demo::load(demo_path, limits)?;
     let robot = demo.load_robot(limits)?;
     demo.check_robot(&robot)?;

@@ -120,7 +120,8 @@ pub struct SynthSpec {
     /// The link the wrist is (`--wrist-link`), written into the demonstration; the robot
     /// given to [`synthesize`] must be loaded rooted there.
     pub wrist_link: Option<String>,
-    /// The physics of the grasp's hold test (the replay's defaults).
+    /// The physics of the grasp's hold test and of its demonstration's replay (the
+    /// replay's defaults).
     pub hold: crate::physics::Params,
 }
 
@@ -184,6 +185,14 @@ pub struct Synthesis {
     pub stats: SynthStats,
 }
 
+/// The scene a synthesized demonstration is replayed in: the table of
+/// [`super::defaults::scene_bytes`], which `synth` writes beside it.
+fn synth_scene(spec: &SynthSpec, robot_path: &Path) -> Result<crate::model::Scene> {
+    let file = serde_json::from_slice(&super::defaults::scene_bytes(spec))
+        .map_err(|e| Error::invalid(robot_path, "(scene)", format!("synthesized scene: {e}")))?;
+    crate::model::Scene::from_file(file, Path::new(&format!("{}.scene.json", spec.name)))
+}
+
 /// The object as a collision shape in its own frame (the grasp IK's penetration term).
 fn object_shape(mesh: &Mesh, path: &Path) -> Option<CollisionShape> {
     CollisionShape::new(
@@ -231,48 +240,71 @@ pub fn synthesize(
     )
     .expect("a box is a valid shape");
 
-    let (template, g, choice) =
-        grasp_search(spec, robot, robot_path, &geo, &shape, &start, &table)?;
-
-    // Correspondences at the grasp, object frame.
+    // Each candidate grasp that holds is built into its demonstration and replayed on the
+    // synthesized table (the scene `validate` finds beside it).
+    let scene = synth_scene(spec, robot_path)?;
     let mut poses = robot.new_link_poses();
-    let wrist0 = start * g.wrist_in_object;
-    robot.forward_kinematics(&wrist0, &g.q, &mut poses);
     let samples = contacts::hand_samples(robot, spec.contacts.spacing_mm * 1e-3);
-    let base_contacts = contacts::extract(
-        robot,
-        &samples,
-        &poses,
-        &geo,
-        &start,
-        spec.contacts.max_distance_mm * 1e-3,
-    );
-    if base_contacts.is_empty() {
-        return Err(fail(
-            "(grasp)",
-            format!("the grasp of '{object}' touches the object nowhere"),
-        ));
-    }
-
-    let frames = build_frames(spec, &start, &g, &template, &base_contacts);
-    let mut demo = Demo {
-        name: spec.name.clone(),
-        fps: spec.fps,
-        robot: robot_path.to_path_buf(),
-        object: ObjectInfo {
-            name: object.name().to_string(),
-            mesh: mesh_path.to_path_buf(),
-            mass: object.mass_kg(),
-        },
-        joint_names: robot.actuated_names(),
-        frames,
-        timewarp: None,
-        scene: None,
-        barriers: Vec::new(),
-        wrist_link: spec.wrist_link.clone(),
-        source: PathBuf::from(format!("{}.demo.json", spec.name)),
+    let mut build = |template: &GraspTemplate, g: &Grasp| -> Result<Candidate> {
+        // Correspondences at the grasp, object frame.
+        let wrist0 = start * g.wrist_in_object;
+        robot.forward_kinematics(&wrist0, &g.q, &mut poses);
+        let base_contacts = contacts::extract(
+            robot,
+            &samples,
+            &poses,
+            &geo,
+            &start,
+            spec.contacts.max_distance_mm * 1e-3,
+        );
+        if base_contacts.is_empty() {
+            return Err(fail(
+                "(grasp)",
+                format!("the grasp of '{object}' touches the object nowhere"),
+            ));
+        }
+        let frames = build_frames(spec, &start, g, template, &base_contacts);
+        let mut demo = Demo {
+            name: spec.name.clone(),
+            fps: spec.fps,
+            robot: robot_path.to_path_buf(),
+            object: ObjectInfo {
+                name: object.name().to_string(),
+                mesh: mesh_path.to_path_buf(),
+                mass: object.mass_kg(),
+            },
+            joint_names: robot.actuated_names(),
+            frames,
+            timewarp: None,
+            scene: None,
+            barriers: Vec::new(),
+            wrist_link: spec.wrist_link.clone(),
+            source: PathBuf::from(format!("{}.demo.json", spec.name)),
+        };
+        round_demo(&mut demo);
+        let replay = crate::physics::validate(
+            robot,
+            &demo,
+            &scene,
+            &[],
+            &geo.mesh,
+            &spec.hold,
+            &crate::Limits::default(),
+        )?;
+        Ok(Candidate {
+            demo,
+            contacts_per_frame: base_contacts.len(),
+            replay,
+        })
     };
-    round_demo(&mut demo);
+    let (g, choice, built) = grasp_search(
+        spec, robot, robot_path, &geo, &shape, &start, &table, &mut build,
+    )?;
+    let Candidate {
+        demo,
+        contacts_per_frame,
+        ..
+    } = built;
 
     // Every frame: hand-object penetration (in-contact frames share one relative pose).
     let (worst, c0, c1) = check_penetration(spec, robot, robot_path, &geo, &demo, &mut poses)?;
@@ -282,7 +314,7 @@ pub fn synthesize(
         stats: SynthStats {
             grasp: g,
             choice,
-            contacts_per_frame: base_contacts.len(),
+            contacts_per_frame,
             d_c_mm,
             max_penetration_mm: worst * 1e3,
             contact_segment: (c0, c1),
@@ -291,10 +323,20 @@ pub fn synthesize(
     })
 }
 
-/// The grasp and the template it was solved from: the first candidate whose grasp IK
-/// succeeds on the object at `start` (with the support `table` as a barrier) and whose grasp
-/// holds the object in physics ([`HoldTest`]), with what was tried. Fails naming every
-/// candidate and why it failed when none does.
+/// A candidate grasp built into its demonstration, and that demonstration's replay.
+struct Candidate {
+    demo: Demo,
+    contacts_per_frame: usize,
+    replay: crate::physics::PhysicsReport,
+}
+
+/// The grasp, the choice, and its demonstration: the first candidate whose grasp IK
+/// succeeds on the object at `start` (with the support `table` as a barrier), whose grasp
+/// holds the object in physics with the hand frozen ([`HoldTest`]), and whose demonstration
+/// (`build`) passes the replay. When every grasp that holds fails the replay, the one whose
+/// replay turns the object least is kept, and the choice says so. Fails naming every
+/// candidate and why it failed when no grasp holds.
+#[allow(clippy::too_many_arguments)]
 fn grasp_search(
     spec: &SynthSpec,
     robot: &Robot,
@@ -303,7 +345,8 @@ fn grasp_search(
     shape: &CollisionShape,
     start: &Isometry3<f64>,
     table: &CollisionShape,
-) -> Result<(GraspTemplate, Grasp, GraspChoice)> {
+    build: &mut dyn FnMut(&GraspTemplate, &Grasp) -> Result<Candidate>,
+) -> Result<(Grasp, GraspChoice, Candidate)> {
     let object = spec.object;
     let fail = |field: &str, msg: String| Error::invalid(robot_path, field, msg);
     // Our hands have named templates for the objects they were made with; any other hand,
@@ -335,6 +378,8 @@ fn grasp_search(
         .collect();
     let mut generic_queued = false;
     let mut tried: Vec<String> = Vec::new();
+    // The grasp that holds whose replay turned the object least, when none passes.
+    let mut best: Option<Held> = None;
     let mut k = 0;
     loop {
         if k == queue.len() {
@@ -366,32 +411,122 @@ fn grasp_search(
                 continue;
             }
         };
-        let moved_mm = hold.displacement_mm(robot, &g, start);
-        if moved_mm <= hold.limit_mm() {
-            let choice = GraspChoice {
-                candidate: label.to_string(),
-                hold_mm: moved_mm,
-                tried,
-            };
-            return Ok((template, g, choice));
+        match judge(label, &template, g, &hold, robot, start, build) {
+            Judged::Rejected(why) => tried.push(why),
+            Judged::Passed(held) => {
+                let choice = GraspChoice {
+                    candidate: label.to_string(),
+                    hold_mm: held.hold_mm,
+                    replay: None,
+                    tried,
+                };
+                return Ok((held.grasp, choice, held.built));
+            }
+            Judged::FailsReplay(held) => {
+                tried.push(format!(
+                    "{label}: the grasp holds the object ({:.1} mm in the hold test) but its demonstration fails the replay: {}",
+                    held.hold_mm, held.why
+                ));
+                if best.as_ref().is_none_or(|b| held.rotation < b.rotation) {
+                    best = Some(held);
+                }
+            }
         }
-        tried.push(format!(
-            "{label}: the grasp does not hold the object (it moves {moved_mm:.1} mm in the hold test, limit {:.1} mm)",
-            hold.limit_mm()
-        ));
     }
+    if let Some(b) = best {
+        let choice = GraspChoice {
+            candidate: b.label.to_string(),
+            hold_mm: b.hold_mm,
+            replay: Some(format!(
+                "no candidate's demonstration passes the replay; kept the one that turns the object least ({:.1}° on average): {}",
+                b.rotation, b.why
+            )),
+            tried,
+        };
+        return Ok((b.grasp, choice, b.built));
+    }
+    Err(refusal(spec, robot, robot_path, geo, &tried))
+}
+
+/// Why no grasp holds: every candidate tried and why it failed, and the jaws' span when a
+/// two-finger hand cannot open around the object.
+fn refusal(
+    spec: &SynthSpec,
+    robot: &Robot,
+    robot_path: &Path,
+    geo: &ObjectGeometry,
+    tried: &[String],
+) -> Error {
     let too_wide = super::generic::layout(robot, spec.tips.as_deref())
         .ok()
         .and_then(|layout| jaws_too_narrow(robot, &layout, geo))
         .unwrap_or_default();
-    Err(fail(
+    Error::invalid(
+        robot_path,
         "(grasp)",
         format!(
-            "cannot grasp object '{object}' with robot {:?}: {}{too_wide}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
+            "cannot grasp object '{}' with robot {:?}: {}{too_wide}; try another object, or name the fingertip links with --tips a,b,c (see `dexwarp robot` for the hand's links and limits)",
+            spec.object,
             robot.name,
             tried.join("; ")
         ),
-    ))
+    )
+}
+
+/// A grasp that holds with the hand frozen, built and replayed.
+struct Held {
+    label: &'static str,
+    hold_mm: f64,
+    /// Mean rotation error of its replay [deg].
+    rotation: f64,
+    /// Its replay's first reason; empty when it passes.
+    why: String,
+    grasp: Grasp,
+    built: Candidate,
+}
+
+/// What one candidate grasp came to.
+enum Judged {
+    /// Why it was passed over before its replay.
+    Rejected(String),
+    Passed(Held),
+    FailsReplay(Held),
+}
+
+/// The hold test of grasp `g`, then its demonstration (`build`) and replay.
+fn judge(
+    label: &'static str,
+    template: &GraspTemplate,
+    g: Grasp,
+    hold: &HoldTest,
+    robot: &Robot,
+    start: &Isometry3<f64>,
+    build: &mut dyn FnMut(&GraspTemplate, &Grasp) -> Result<Candidate>,
+) -> Judged {
+    let hold_mm = hold.displacement_mm(robot, &g, start);
+    if hold_mm > hold.limit_mm() {
+        return Judged::Rejected(format!(
+            "{label}: the grasp does not hold the object (it moves {hold_mm:.1} mm in the hold test, limit {:.1} mm)",
+            hold.limit_mm()
+        ));
+    }
+    let built = match build(template, &g) {
+        Ok(b) => b,
+        Err(e) => return Judged::Rejected(format!("{label}: {e}")),
+    };
+    let held = Held {
+        label,
+        hold_mm,
+        rotation: built.replay.tracking.mean_rotation_error_deg,
+        why: built.replay.reasons.first().cloned().unwrap_or_default(),
+        grasp: g,
+        built,
+    };
+    if held.built.replay.passed() {
+        Judged::Passed(held)
+    } else {
+        Judged::FailsReplay(held)
+    }
 }
 
 /// For a two-finger hand whose pads open less far than the object is wide (its narrowest
@@ -433,6 +568,9 @@ pub struct GraspChoice {
     pub candidate: String,
     /// The object's displacement in the hold test of the kept grasp [mm].
     pub hold_mm: f64,
+    /// `None` when the kept grasp's demonstration passes the replay; else why it was kept
+    /// anyway (no candidate's passes) and its replay's first reason.
+    pub replay: Option<String>,
     /// The candidates tried before it, each with why it failed.
     pub tried: Vec<String>,
 }

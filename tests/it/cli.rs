@@ -398,8 +398,19 @@ fn validate_grasp_only_tells_a_holding_grasp_from_an_empty_hand() {
     assert!(stderr(&o).contains("the grasp holds"), "{}", stderr(&o));
     let g: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("grasp.json")).unwrap()).unwrap();
+    assert_eq!(g["format"], "dexwarp.grasp/2");
     assert_eq!(g["holds"], true);
     assert_eq!(g["stability"]["frames"].as_array().unwrap().len(), 8);
+    // Carried over the contact segment without the table, the pot follows the hand.
+    let carried = &g["carry"]["tracking"];
+    assert!(
+        carried["mean_rotation_error_deg"].as_f64().unwrap() < 5.0,
+        "{carried}"
+    );
+    assert!(
+        carried["max_position_error_mm"].as_f64().unwrap() < 10.0,
+        "{carried}"
+    );
     assert!(!out.join("report.json").exists());
 
     let mut demo: serde_json::Value =
@@ -438,4 +449,16 @@ fn validate_grasp_only_tells_a_holding_grasp_from_an_empty_hand() {
         serde_json::from_slice(&std::fs::read(out.join("grasp.json")).unwrap()).unwrap();
     assert_eq!(g["holds"], false);
     assert!(g["stability"]["max_mm"].as_f64().unwrap() > 30.0);
+    // Carried, the cube falls out of the lifted hand: the carry stops one drop window after.
+    let reasons = g["reasons"].to_string();
+    assert!(
+        reasons.contains("carried, the object drops out of the grasp"),
+        "{reasons}"
+    );
+    let c = &g["carry"];
+    assert!(
+        c["frames_replayed"].as_u64().unwrap()
+            < c["last_frame"].as_u64().unwrap() - c["first_frame"].as_u64().unwrap(),
+        "{c}"
+    );
 }

@@ -414,14 +414,34 @@ fn community_ability_synth_warp_and_physics() {
     let Some(urdf) = community_hand("ability_hand", "ability_hand_right.urdf") else {
         return;
     };
-    // The cube's original: the grasp of every finger holds it still (0.6 mm in the hold
-    // test) but lets it turn 19° on average as the hand carries it (limit 15°).
+    // The cube: the grasp of every finger holds it still (0.6 mm in the hold test) but its
+    // demonstration turns it 20° on average in the replay (limit 15°): synth keeps the thumb
+    // and two fingers, whose demonstration passes.
     check_hand(
         &urdf,
         &[
             ("apple", "allegro_apple_plate", Some("pass"), Some("pass")),
-            ("cube", "cube_messy", None, Some("pass")),
+            ("cube", "cube_messy", Some("pass"), Some("pass")),
         ],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let o = dexwarp(&[
+        "synth",
+        "--object",
+        "cube",
+        "--robot",
+        s(&urdf),
+        "--motion",
+        "lift_place",
+        "--out",
+        s(&dir.path().join("cube.demo.json")),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let said = stderr(&o);
+    assert!(said.contains("grasp: thumb and two fingers"), "{said}");
+    assert!(
+        said.contains("every finger: the grasp holds the object"),
+        "{said}"
     );
 }
 
@@ -528,6 +548,24 @@ fn synth_keeps_only_a_grasp_that_holds() {
     let choice = &syn.stats.choice;
     assert!(choice.tried.is_empty(), "{choice:?}");
     assert!(choice.hold_mm < 30.0, "{choice:?}");
+    assert_eq!(choice.replay, None, "{choice:?}");
+
+    // A replay no grasp can pass (every rotation error over 0.01°): every candidate that
+    // holds is replayed, and the one that turns the object least is kept, saying so.
+    let mut strict = base.spec.clone();
+    strict.hold.max_mean_rotation_error_deg = 0.01;
+    let kept = synthesize(&strict, &robot, &robot_path, &mesh).unwrap();
+    let choice = &kept.stats.choice;
+    let why = choice.replay.as_deref().unwrap_or_default();
+    assert!(
+        why.contains("no candidate's demonstration passes the replay"),
+        "{choice:?}"
+    );
+    assert!(why.contains("mean object rotation error"), "{choice:?}");
+    assert!(
+        choice.tried.iter().all(|t| t.contains("fails the replay")),
+        "{choice:?}"
+    );
 
     let mut heavy = base.spec.clone();
     heavy.hold.gravity = [0.0, 0.0, -2000.0];

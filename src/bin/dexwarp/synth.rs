@@ -82,9 +82,13 @@ pub fn run(args: SynthArgs, limits: Limits) -> Result<()> {
     );
     let choice = &syn.stats.choice;
     eprintln!(
-        "grasp: {}, holds (the object moves {:.1} mm in the physics hold test){}",
+        "grasp: {}, holds (the object moves {:.1} mm in the physics hold test), {}{}",
         choice.candidate,
         choice.hold_mm,
+        match &choice.replay {
+            None => "its demonstration passes the replay".to_string(),
+            Some(why) => why.clone(),
+        },
         if choice.tried.is_empty() {
             String::new()
         } else {

@@ -107,28 +107,40 @@ fn grasp(
             demo_path.display()
         );
     };
-    let limit_mm = params.max_sim_displacement_m * 1e3;
-    let holds = hold.max_mm <= limit_mm;
-    let sentence = format!(
-        "{}: the grasp {} (object displacement over {} sampled contact frames: mean {:.1} mm, largest {:.1} mm at frame {}; limit {:.1} mm)",
-        demo_path.display(),
-        if holds { "holds" } else { "does not hold" },
-        hold.frames.len(),
-        hold.mean_mm,
-        hold.max_mm,
-        hold.max_frame.unwrap_or(0),
-        limit_mm
+    let (s, c) = (&hold.stability, &hold.carry.tracking);
+    let measured = format!(
+        "frozen at {} sampled contact frames, the object moves {:.1} mm at most (limit {:.1} mm); carried over frames {}-{}, its error is {:.1} mm and {:.1}° on average (limits {:.1} mm, {:.1}°)",
+        s.frames.len(),
+        s.max_mm,
+        params.max_sim_displacement_m * 1e3,
+        hold.carry.first_frame,
+        hold.carry.last_frame,
+        c.mean_position_error_mm,
+        c.mean_rotation_error_deg,
+        params.max_mean_position_error_m * 1e3,
+        params.max_mean_rotation_error_deg,
     );
+    let holds = hold.holds();
+    let sentence = if holds {
+        format!("{}: the grasp holds ({measured})", demo_path.display())
+    } else {
+        format!(
+            "{}: the grasp does not hold: {} ({measured})",
+            demo_path.display(),
+            hold.reasons.join("; ")
+        )
+    };
     dexwarp::output::check_not_inputs(out, &["grasp.json".into()], &[demo_path])?;
     dexwarp::model::json::write_json_atomic(
         &out.join("grasp.json"),
         &serde_json::json!({
-            "format": "dexwarp.grasp/1",
+            "format": "dexwarp.grasp/2",
             "demo": demo_path.display().to_string(),
             "holds": holds,
-            "limit_mm": limit_mm,
+            "reasons": hold.reasons,
             "sentence": sentence,
-            "stability": hold,
+            "stability": hold.stability,
+            "carry": hold.carry,
         }),
     )?;
     eprintln!("{sentence}");
