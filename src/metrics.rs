@@ -29,6 +29,24 @@ pub fn d_wo_mm(demo: &Demo) -> f64 {
         * 1e3
 }
 
+/// How far the hand slides on the object while it holds it [mm]: over the contact segment,
+/// the largest distance of the wrist origin, in the object's frame, from its mean position
+/// there. 0 for a grasp held rigidly (a synthesized recording, the rigid baseline); a hand
+/// that follows drifting correspondences slides. `None` without a contact segment.
+pub fn grasp_slide_mm(demo: &Demo) -> Option<f64> {
+    let s = demo.contact_segment()?;
+    let rel: Vec<nalgebra::Vector3<f64>> = demo.frames[s.start..=s.end]
+        .iter()
+        .map(|f| {
+            f.object
+                .inverse_transform_point(&f.wrist.translation.vector.into())
+                .coords
+        })
+        .collect();
+    let mean = rel.iter().sum::<nalgebra::Vector3<f64>>() / rel.len() as f64;
+    Some(rel.iter().map(|r| (r - mean).norm()).fold(0.0, f64::max) * 1e3)
+}
+
 /// The deepest hand-object penetration over all frames of `demo` [mm]: the hand's
 /// penetration probes in the object's signed distance field (the measure the contact IK
 /// constrains and the physics check reports). 0 when the hand never enters the object.
@@ -150,4 +168,78 @@ pub fn worst_frame(per_frame: &[Option<f64>]) -> Option<(usize, f64)> {
         .enumerate()
         .filter_map(|(t, v)| v.map(|v| (t, v)))
         .max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::demo::ObjectInfo;
+    use crate::model::{Contact, Frame};
+    use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
+    use std::path::PathBuf;
+
+    /// An object turning and rising over 20 frames with the wrist 10 cm from it in its frame;
+    /// frames 5-14 have contacts.
+    fn carried(wrist_in_object: impl Fn(usize) -> Vector3<f64>) -> Demo {
+        let contact = Contact {
+            link: "palm".into(),
+            hand_point: Point3::origin(),
+            object_point: Point3::origin(),
+        };
+        let frames = (0..20)
+            .map(|i| {
+                let object = Isometry3::from_parts(
+                    Translation3::new(0.0, 0.0, 0.01 * i as f64),
+                    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.1 * i as f64),
+                );
+                let wrist = object * Translation3::from(wrist_in_object(i));
+                Frame {
+                    object,
+                    wrist: Isometry3::from_parts(wrist.translation, wrist.rotation),
+                    joints: Vec::new(),
+                    contacts: if (5..15).contains(&i) {
+                        vec![contact.clone()]
+                    } else {
+                        Vec::new()
+                    },
+                }
+            })
+            .collect();
+        Demo {
+            name: "t".into(),
+            fps: 30.0,
+            robot: PathBuf::new(),
+            object: ObjectInfo {
+                name: "o".into(),
+                mesh: PathBuf::new(),
+                mass: 0.1,
+            },
+            joint_names: Vec::new(),
+            frames,
+            timewarp: None,
+            scene: None,
+            barriers: Vec::new(),
+            wrist_link: None,
+            source: PathBuf::new(),
+        }
+    }
+
+    /// A wrist fixed in the object's frame does not slide however the object moves; one
+    /// that moves 4 mm along the object's x over the contact segment slides 2 mm from its
+    /// mean; frames outside contact do not count; no contacts, no figure.
+    #[test]
+    fn grasp_slide_is_the_wrists_travel_in_the_objects_frame_while_in_contact() {
+        let rigid = carried(|_| Vector3::new(0.1, 0.0, 0.0));
+        assert!(grasp_slide_mm(&rigid).unwrap() < 1e-9);
+        let sliding = carried(|i| {
+            let s = (i.clamp(5, 14) - 5) as f64 / 9.0;
+            Vector3::new(0.1 + 0.004 * s, 0.0, 0.0) + Vector3::y() * if i < 5 { 0.05 } else { 0.0 }
+        });
+        assert!((grasp_slide_mm(&sliding).unwrap() - 2.0).abs() < 1e-9);
+        let mut none = rigid;
+        for f in &mut none.frames {
+            f.contacts.clear();
+        }
+        assert_eq!(grasp_slide_mm(&none), None);
+    }
 }

@@ -144,12 +144,16 @@ fn baseline_section(b: &BaselineStats) -> String {
         p.only_baseline,
         p.neither
     );
-    h.push_str("<table><tr><th>D_C [mm], same samples</th><th>n</th><th>contact IK median</th><th>p90</th><th>baseline median</th><th>p90</th></tr>\n");
+    h.push_str("<table><tr><th>same samples [mm]</th><th>n</th><th>contact IK median</th><th>p90</th><th>baseline median</th><th>p90</th></tr>\n");
     for (what, pair) in [
-        ("whole contact segment", &b.d_c_mm),
+        ("D_C, whole contact segment", &b.d_c_mm),
         (
-            &format!("stretched segments (duration ×{STRETCHED} or more)"),
+            &format!("D_C, stretched segments (duration ×{STRETCHED} or more)"),
             &b.d_c_stretched_mm,
+        ),
+        (
+            "grasp slide: the wrist's travel on the object while in contact",
+            &b.grasp_slide_mm,
         ),
     ] {
         h.push_str(&format!(

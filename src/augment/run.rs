@@ -280,6 +280,7 @@ fn fill(row: &mut Row, report: &Report, spec: &Spec, dir: &Path, stretched: &[Ra
         row.converged_fraction = report.ik.as_ref().map(|i| i.converged_fraction);
         row.frames_out = Some(report.frames_out);
         row.d_c_stretched_mm = mean_d_c_over(&dir.join("frames.csv"), stretched);
+        row.grasp_slide_mm = m.grasp_slide_mm.as_ref().map(|p| p.warped);
     }
 }
 
@@ -296,6 +297,7 @@ fn fill_baseline(
     if report.error.is_none() {
         row.baseline_d_c_mm = Some(report.metrics.d_c_mm.warped);
         row.baseline_d_c_stretched_mm = mean_d_c_over(&dir.join(BASELINE_FRAMES), stretched);
+        row.baseline_grasp_slide_mm = report.metrics.grasp_slide_mm.as_ref().map(|p| p.warped);
     }
 }
 

@@ -69,6 +69,12 @@ pub struct Row {
     pub baseline_d_c_mm: Option<f64>,
     #[serde(default)]
     pub baseline_d_c_stretched_mm: Option<f64>,
+    /// How far each hand slides on the object over the contact segment
+    /// (`metrics::grasp_slide_mm`) [mm].
+    #[serde(default)]
+    pub grasp_slide_mm: Option<f64>,
+    #[serde(default)]
+    pub baseline_grasp_slide_mm: Option<f64>,
 }
 
 /// A segment whose duration factor is at least this is *stretched*: its D_C is reported
@@ -305,6 +311,9 @@ pub struct BaselineStats {
     /// (duration factor at least [`STRETCHED`]) [mm].
     pub d_c_mm: HandPair,
     pub d_c_stretched_mm: HandPair,
+    /// How far each hand slides on the object over the contact segment [mm].
+    #[serde(default)]
+    pub grasp_slide_mm: HandPair,
 }
 
 /// The paired outcome of contact IK and the baseline on the same samples.
@@ -369,6 +378,7 @@ impl BaselineStats {
         };
         b.d_c_mm = pair(|r| r.d_c_mm, |r| r.baseline_d_c_mm);
         b.d_c_stretched_mm = pair(|r| r.d_c_stretched_mm, |r| r.baseline_d_c_stretched_mm);
+        b.grasp_slide_mm = pair(|r| r.grasp_slide_mm, |r| r.baseline_grasp_slide_mm);
         Some(b)
     }
 }

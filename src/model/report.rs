@@ -69,6 +69,10 @@ pub struct Metrics {
     /// The output frame with the largest contact distance.
     #[serde(default)]
     pub d_c_worst: Option<WorstFrame>,
+    /// How far the hand slides on the object over the contact segment
+    /// (`metrics::grasp_slide_mm`) [mm]; `null` without contacts.
+    #[serde(default)]
+    pub grasp_slide_mm: Option<Pair>,
 }
 
 /// One frame and its contact distance.

@@ -190,6 +190,9 @@ fn metrics_report(
             stretched_frames: stretched.len(),
             d_c_worst: metrics::worst_frame(dc_frames)
                 .map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
+            grasp_slide_mm: metrics::grasp_slide_mm(original)
+                .zip(metrics::grasp_slide_mm(out))
+                .map(|(original, warped)| Pair { original, warped }),
         },
         constraints: Constraints {
             hand_object_penetration_mm: crate::geometry::object_sdf(mesh).map(|sdf| Pair {

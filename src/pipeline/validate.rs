@@ -144,6 +144,10 @@ pub fn validate_demo(
             timewarp_discrepancy_paper: None,
             d_c_worst: metrics::worst_frame(&dc)
                 .map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
+            grasp_slide_mm: metrics::grasp_slide_mm(&demo).map(|v| Pair {
+                original: v,
+                warped: v,
+            }),
             ..Metrics::default()
         },
         constraints: Constraints {

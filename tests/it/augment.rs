@@ -600,7 +600,21 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
             let v: f64 = r[col(c)].parse().unwrap_or(f64::NAN);
             assert!(v.is_finite() && v > 0.0, "{c}: {:?}", &r[col(c)]);
         }
+        // Each hand's slide on the object, from its own report.
+        let slide: f64 = r[col("baseline_grasp_slide_mm")].parse().unwrap();
+        assert_eq!(
+            slide,
+            report["metrics"]["grasp_slide_mm"]["warped"]
+                .as_f64()
+                .unwrap()
+        );
+        assert!(r[col("grasp_slide_mm")].parse::<f64>().unwrap() >= 0.0);
     }
+    assert_eq!(
+        b["grasp_slide_mm"]["contact_ik"]["n"].as_u64(),
+        Some(ran),
+        "{b}"
+    );
     let page = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(page.contains("Contact IK against the SE(3) baseline"));
 
