@@ -92,20 +92,7 @@ pub fn validate_demo(
     let report_p = physics::validate(&robot, &demo, &scene, &barriers, &mesh, params, limits)?;
     checks::physics(demo_path, &report_p)?;
     let dc = metrics::contact_distance_per_frame_mm(&robot, &demo);
-    let d_c = metrics::d_c_mm(&dc);
-    let d_wo = metrics::d_wo_mm(&demo);
     let n = demo.frames.len();
-    let discrepancy = demo
-        .timewarp
-        .as_ref()
-        .map(|tau| {
-            crate::warp::retime::Timewarp {
-                tau: tau.clone(),
-                frames_out: n,
-            }
-            .discrepancy()
-        })
-        .unwrap_or(0.0);
     let segment = demo.contact_segment();
     let frames: Vec<FrameRow> = (0..n)
         .map(|t| FrameRow {
@@ -127,29 +114,7 @@ pub fn validate_demo(
         name: demo.name.clone(),
         frames_in: demo.timewarp.as_ref().map_or(n, Vec::len),
         frames_out: n,
-        metrics: Metrics {
-            d_wo_mm: Pair {
-                original: d_wo,
-                warped: d_wo,
-            },
-            d_c_mm: ContactDistance {
-                original: d_c,
-                unsmoothed: d_c,
-                warped: d_c,
-                uncorrupted: None,
-            },
-            plr_object: 1.0,
-            plr_hand: 1.0,
-            timewarp_discrepancy: discrepancy,
-            timewarp_discrepancy_paper: None,
-            d_c_worst: metrics::worst_frame(&dc)
-                .map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
-            grasp_slide_mm: metrics::grasp_slide_mm(&demo).map(|v| Pair {
-                original: v,
-                warped: v,
-            }),
-            ..Metrics::default()
-        },
+        metrics: recorded_metrics(&demo, &dc),
         constraints: Constraints {
             object_radius_mm: mesh.bounding_radius() * 1e3,
             contact_gap_frames: segment.map_or(0, |s| s.gap_frames),
@@ -173,4 +138,45 @@ pub fn validate_demo(
         ..report
     };
     Ok((report, frames))
+}
+
+/// The metrics of a demonstration judged as it is (no warp: original and output are the
+/// same), from its per-frame contact distances `dc`.
+fn recorded_metrics(demo: &Demo, dc: &[Option<f64>]) -> Metrics {
+    let n = demo.frames.len();
+    let d_c = metrics::d_c_mm(dc);
+    let d_wo = metrics::d_wo_mm(demo);
+    let discrepancy = demo
+        .timewarp
+        .as_ref()
+        .map(|tau| {
+            crate::warp::retime::Timewarp {
+                tau: tau.clone(),
+                frames_out: n,
+            }
+            .discrepancy()
+        })
+        .unwrap_or(0.0);
+    Metrics {
+        d_wo_mm: Pair {
+            original: d_wo,
+            warped: d_wo,
+        },
+        d_c_mm: ContactDistance {
+            original: d_c,
+            unsmoothed: d_c,
+            warped: d_c,
+            uncorrupted: None,
+        },
+        plr_object: 1.0,
+        plr_hand: 1.0,
+        timewarp_discrepancy: discrepancy,
+        timewarp_discrepancy_paper: None,
+        d_c_worst: metrics::worst_frame(dc).map(|(frame, d_c_mm)| WorstFrame { frame, d_c_mm }),
+        grasp_slide_mm: metrics::grasp_slide_mm(demo).map(|v| Pair {
+            original: v,
+            warped: v,
+        }),
+        ..Metrics::default()
+    }
 }
