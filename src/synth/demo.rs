@@ -434,6 +434,9 @@ fn grasp_search(
         }
     }
     if let Some(b) = best {
+        // The kept candidate's own replay failure is in the choice, not among the others.
+        let own = format!("{}: ", b.label);
+        tried.retain(|t| !t.starts_with(&own));
         let choice = GraspChoice {
             candidate: b.label.to_string(),
             hold_mm: b.hold_mm,

@@ -562,8 +562,16 @@ fn synth_keeps_only_a_grasp_that_holds() {
         "{choice:?}"
     );
     assert!(why.contains("mean object rotation error"), "{choice:?}");
+    assert!(!choice.tried.is_empty(), "{choice:?}");
     assert!(
         choice.tried.iter().all(|t| t.contains("fails the replay")),
+        "{choice:?}"
+    );
+    assert!(
+        !choice
+            .tried
+            .iter()
+            .any(|t| t.starts_with(&format!("{}: ", choice.candidate))),
         "{choice:?}"
     );
 
