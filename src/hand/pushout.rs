@@ -240,8 +240,11 @@ fn link_pass(
         for span in spans {
             for t in span.clone() {
                 robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut poses);
-                push[t] = links.push(&mut poses);
-                any |= push[t] != Vector3::zeros();
+                let (moved, clear) = links.push(&mut poses);
+                push[t] = moved;
+                // Pushes between two barriers can cancel out: a frame left too close keeps
+                // the sweeps going (up to the cap) even when its push is zero.
+                any |= moved != Vector3::zeros() || !clear;
             }
         }
         if !any {
@@ -273,14 +276,16 @@ fn link_pass(
     for span in spans {
         for t in span.clone() {
             robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut poses);
-            let Some((d, _, b)) = links.nearest(&poses) else {
+            let Some((d, _, _)) = links.nearest(&poses) else {
                 continue;
             };
             stats.min_link_clearance_m = Some(stats.min_link_clearance_m.map_or(d, |m| m.min(d)));
             if d < 0.0 {
                 gap.frames.push(t);
-                if !gap.barriers.contains(&barriers.names[b]) {
-                    gap.barriers.push(barriers.names[b].clone());
+                for b in links.penetrated(&poses) {
+                    if !gap.barriers.contains(&barriers.names[b]) {
+                        gap.barriers.push(barriers.names[b].clone());
+                    }
                 }
             }
         }
@@ -327,10 +332,9 @@ impl<'a> LinkClearance<'a> {
         }
     }
 
-    /// The smallest link-barrier distance (negative: penetrating) within the clearance, with
-    /// the world normal pointing from the barrier to the link and the barrier's index.
-    fn nearest(&self, poses: &[Isometry3<f64>]) -> Option<(f64, Vector3<f64>, usize)> {
-        let mut best: Option<(f64, Vector3<f64>, usize)> = None;
+    /// Calls `f(distance, normal, barrier)` for every link-barrier pair within the clearance
+    /// (distance negative: penetrating; the world normal points from the barrier to the link).
+    fn each_close(&self, poses: &[Isometry3<f64>], mut f: impl FnMut(f64, Vector3<f64>, usize)) {
         for &(link, cs) in &self.hand {
             let pose = to_pose(&(poses[link] * cs.shape_pose));
             let aabb = cs.shape.compute_aabb(&pose).loosened(self.clearance);
@@ -340,36 +344,55 @@ impl<'a> LinkClearance<'a> {
                 }
                 let bpose = to_pose(&barrier.shape_pose);
                 // Unsupported pairs (none among the shapes URDFs and scenes give) are skipped.
-                let Ok(Some(c)) = query::contact(
+                if let Ok(Some(c)) = query::contact(
                     &pose,
                     cs.shape.as_ref(),
                     &bpose,
                     barrier.shape.as_ref(),
                     self.clearance,
-                ) else {
-                    continue;
-                };
-                if best.is_none_or(|b| c.dist < b.0) {
+                ) {
                     let n1 = c.normal1;
-                    best = Some((c.dist, -Vector3::new(n1.x, n1.y, n1.z), j));
+                    f(c.dist, -Vector3::new(n1.x, n1.y, n1.z), j);
                 }
             }
         }
+    }
+
+    /// The smallest link-barrier distance within the clearance, its normal and its barrier.
+    fn nearest(&self, poses: &[Isometry3<f64>]) -> Option<(f64, Vector3<f64>, usize)> {
+        let mut best: Option<(f64, Vector3<f64>, usize)> = None;
+        self.each_close(poses, |d, n, j| {
+            if best.is_none_or(|b| d < b.0) {
+                best = Some((d, n, j));
+            }
+        });
         best
     }
 
-    /// The wrist translation that gives every link the clearance (zero when it has it).
-    /// Moves `poses` along.
-    fn push(&self, poses: &mut [Isometry3<f64>]) -> Vector3<f64> {
+    /// The barriers some link is inside.
+    fn penetrated(&self, poses: &[Isometry3<f64>]) -> Vec<usize> {
+        let mut inside = Vec::new();
+        self.each_close(poses, |d, _, j| {
+            if d < 0.0 && !inside.contains(&j) {
+                inside.push(j);
+            }
+        });
+        inside
+    }
+
+    /// The wrist translation that gives every link the clearance (zero when it has it), and
+    /// whether it does after the move (it may not within [`LINK_STEPS`] moves, or between
+    /// two barriers). Moves `poses` along.
+    fn push(&self, poses: &mut [Isometry3<f64>]) -> (Vector3<f64>, bool) {
         let mut total = Vector3::zeros();
         for _ in 0..LINK_STEPS {
             let Some((d, n, _)) = self.nearest(poses) else {
-                break;
+                return (total, true);
             };
             // A micrometre past the clearance, so the next query does not find it again.
             let gap = self.clearance - d;
             if gap <= 1e-6 {
-                break;
+                return (total, true);
             }
             let m = n * (gap + 1e-6);
             total += m;
@@ -377,7 +400,10 @@ impl<'a> LinkClearance<'a> {
                 *p = Translation3::from(m) * *p;
             }
         }
-        total
+        let clear = self
+            .nearest(poses)
+            .is_none_or(|(d, _, _)| d >= self.clearance - 1e-6);
+        (total, clear)
     }
 }
 
@@ -568,6 +594,64 @@ mod tests {
             .map(|t| (out.wrists[t].translation.vector - positions[t]).norm())
             .fold(0.0, f64::max);
         assert!((moved_max - stats.max_push_m).abs() < 1e-12);
+    }
+
+    /// A palm 4 cm wide passing between two walls 3 cm apart: out of one wall is into the
+    /// other, so the link pass stops at its sweep cap and reports the frames still inside and
+    /// the walls they are in, rather than working on.
+    #[test]
+    fn the_link_pass_reports_a_gap_too_narrow_for_the_hand() {
+        let n = 40;
+        let segment = ContactSegment {
+            start: 30,
+            end: 35,
+            gap_frames: 0,
+        };
+        let positions: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new(-0.3 + 0.01 * i as f64, 0.0, 0.0))
+            .collect();
+        let plan = WarpPlan::identity(&positions, segment);
+        let robot = one_finger();
+        let mut hand = HandPath::with_capacity(n, robot.dof());
+        for p in &positions {
+            hand.push(
+                Isometry3::from_parts(Translation3::from(*p), UnitQuaternion::identity()),
+                &vec![0.0; robot.dof()],
+            );
+        }
+        let wall = |y: f64| {
+            CollisionShape::new(
+                crate::geometry::shape::ShapeKind::Box {
+                    size: Vector3::new(0.1, 0.02, 0.4),
+                },
+                Isometry3::translation(-0.2, y, 0.0),
+            )
+            .unwrap()
+        };
+        let shapes = [wall(0.025), wall(-0.025)];
+        let names = ["left".to_string(), "right".to_string()];
+        let params = Params {
+            radius_m: 0.0,
+            max_sweeps: 8,
+            ..Params::default()
+        };
+        let barriers = Barriers {
+            names: &names,
+            hulls: &[],
+            shapes: &shapes,
+        };
+        let (_, stats) = run(hand, &plan, &robot, barriers, &params);
+        assert_eq!(stats.link_sweeps, 8, "{stats:?}");
+        let gap = stats.narrow_gap.clone().expect("a narrow gap");
+        assert!(!gap.frames.is_empty(), "{gap:?}");
+        assert!(gap.frames.iter().all(|t| (5..=15).contains(t)), "{gap:?}");
+        // Where the sweeps left the hand it is inside one wall or the other.
+        assert!(!gap.barriers.is_empty(), "{gap:?}");
+        assert!(
+            gap.barriers.iter().all(|b| b == "left" || b == "right"),
+            "{gap:?}"
+        );
+        assert!(stats.min_link_clearance_m.unwrap() < 0.0, "{stats:?}");
     }
 
     #[test]
