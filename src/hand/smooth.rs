@@ -154,6 +154,50 @@ pub fn run(
     Ok((out, stats))
 }
 
+/// One grasp for the frames of `range` (the contact segment): the hand's pose in the
+/// object's frame, `O(t)⁻¹·W(t)`, and its joints are averaged over the range (positions and
+/// joint angles by their mean, rotations by Markley's average) and the average is placed on
+/// the object at every frame, `W(t) = O(t)·Ḡ`. A per-frame IK follows its correspondences
+/// frame by frame, and where they drift (a tracking error shared by a frame's points) the
+/// hand slides on the object; a held grasp does not. Joints are clamped by `clamp`. Frames
+/// outside the range are untouched (fade them with [`ease_ends`]).
+pub fn hold_grasp(
+    hand: &mut HandPath,
+    objects: &[Isometry3<f64>],
+    range: RangeInclusive<usize>,
+    clamp: impl Fn(&mut [f64]),
+) -> Result<(), RotationError> {
+    let (a, b) = (*range.start(), *range.end());
+    if a > b || b >= hand.len() || objects.len() != hand.len() {
+        return Ok(());
+    }
+    let rel: Vec<Isometry3<f64>> = (a..=b)
+        .map(|t| objects[t].inverse() * hand.wrists[t])
+        .collect();
+    let m = rel.len() as f64;
+    let position = rel
+        .iter()
+        .map(|r| r.translation.vector)
+        .sum::<Vector3<f64>>()
+        / m;
+    let rotations: Vec<UnitQuaternion<f64>> = rel.iter().map(|r| r.rotation).collect();
+    let rotation = crate::math::rotation::average_quaternions(&rotations, None)?;
+    let held = Isometry3::from_parts(Translation3::from(position), rotation);
+    let dof = hand.dof;
+    let mut q = vec![0.0; dof];
+    for t in a..=b {
+        for (v, x) in q.iter_mut().zip(hand.q(t)) {
+            *v += x / m;
+        }
+    }
+    clamp(&mut q);
+    for t in a..=b {
+        hand.wrists[t] = objects[t] * held;
+        hand.joints[t * dof..(t + 1) * dof].copy_from_slice(&q);
+    }
+    Ok(())
+}
+
 /// Stage 5c: no step at the ends of the contact segment. Inside `range` the hand is the
 /// (smoothed) IK solution, outside it the rigid transfer `base`; where they differ at the
 /// first and last frame of the range, the hand would jump between two output frames (a

@@ -11,7 +11,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::json::{self, FieldCheck};
-use super::modes::{Objective, PushoutMode, RetimeMode, WarmStart};
+use super::modes::{GraspMode, Objective, PushoutMode, RetimeMode, WarmStart};
 use super::scene::{Role, Scene};
 use crate::limits::MAX_JOINT_ABS;
 use crate::{Error, Limits, Result};
@@ -91,6 +91,10 @@ pub struct WarpParams {
     /// Bounding radius of the hand about the wrist for the hand's barrier push-out outside
     /// the contact segment [m] (`hand::pushout`); 0 turns it off. Default 0.05.
     pub hand_radius_m: f64,
+    /// How the hand holds the object over the contact segment: `per_frame` (default, the
+    /// paper: every frame keeps its IK solution) or `held` (one grasp, the average of the
+    /// frames' solutions in the object's frame, at every frame; `hand::smooth::hold_grasp`).
+    pub grasp: GraspMode,
     /// Clearance every link of the hand keeps from every barrier outside the contact segment,
     /// the hand push-out's link pass [m] (`hand::pushout`); 0 turns it off. Default 0.002.
     pub hand_clearance_m: f64,
@@ -120,6 +124,7 @@ impl Default for WarpParams {
             retime: RetimeMode::Chord,
             continuous_speed: true,
             hand_radius_m: DEFAULT_HAND_RADIUS_M,
+            grasp: GraspMode::PerFrame,
             hand_clearance_m: DEFAULT_HAND_CLEARANCE_M,
             end_t_new: None,
             physics: None,

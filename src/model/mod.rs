@@ -17,5 +17,5 @@ pub mod scene;
 
 pub use config::{WarpConfig, WarpParams, Waypoint};
 pub use demo::{Contact, ContactSegment, Demo, Frame};
-pub use modes::{Objective, PushoutMode, RetimeMode, WarmStart};
+pub use modes::{GraspMode, Objective, PushoutMode, RetimeMode, WarmStart};
 pub use scene::{Role, Scene, SceneItem};

@@ -87,3 +87,25 @@ pub enum WarmStart {
     /// frames, `W ← O(t)·O(t−1)⁻¹·W` (beyond the paper: fewer iterations, less lag).
     FollowObject,
 }
+
+/// How the recovered hand holds the object over the contact segment (stage 5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GraspMode {
+    /// Every frame keeps its own IK solution (the paper). Default.
+    #[default]
+    PerFrame,
+    /// One grasp for the whole segment: the average of the frames' IK solutions in the
+    /// object's frame, placed on the object at every frame (`hand::smooth::hold_grasp`).
+    Held,
+}
+
+impl GraspMode {
+    /// The name used in configs and reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            GraspMode::PerFrame => "per_frame",
+            GraspMode::Held => "held",
+        }
+    }
+}

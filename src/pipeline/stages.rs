@@ -12,7 +12,7 @@ use crate::hand::ik;
 use crate::hand::{HandPath, baseline as rigid, guard as hand_guard, smooth};
 use crate::metrics;
 use crate::model::provenance::Provenance;
-use crate::model::{Demo, Objective};
+use crate::model::{Demo, GraspMode, Objective};
 use crate::physics;
 use crate::robot::Robot;
 use crate::warp::barrier::Barrier;
@@ -173,6 +173,14 @@ pub(super) fn contact_ik(
     let range = object.plan.segment.start..=object.plan.t_end_new();
     let (mut hand, _) = smooth::run(&raw, range.clone(), &smooth::Params::default())
         .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
+    if config.params.grasp == GraspMode::Held {
+        let path = object.path();
+        let objects: Vec<_> = (0..path.len()).map(|t| path.pose(t)).collect();
+        smooth::hold_grasp(&mut hand, &objects, range.clone(), |q| {
+            robot.clamp(q);
+        })
+        .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
+    }
     // Stage 5c: no jump between the IK hand and the rigid transfer at the segment's ends:
     // the difference fades out over `EASE_S` outside it.
     let ease = ((EASE_S * demo.fps).round() as usize).max(1);

@@ -409,6 +409,68 @@ fn smoothing_keeps_a_straight_line_and_the_frames_outside() {
     assert!(smooth::run(&hand, 10..=49, &even).is_err());
 }
 
+/// A held grasp: a hand sliding ±2 mm along the object's x and flexing a joint while the
+/// object moves and turns ends with one pose in the object's frame over the range (the mean
+/// of the frames'), the mean joints, and the frames outside untouched.
+#[test]
+fn a_held_grasp_is_one_pose_in_the_objects_frame() {
+    let n = 40;
+    let objects: Vec<Isometry3<f64>> = (0..n)
+        .map(|t| {
+            Isometry3::from_parts(
+                Translation3::new(0.01 * t as f64, 0.0, 0.9),
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.05 * t as f64),
+            )
+        })
+        .collect();
+    let mut hand = HandPath::with_capacity(n, 1);
+    for (t, o) in objects.iter().enumerate() {
+        let slide = 0.002 * (t as f64 * 0.3).sin();
+        let rel = Isometry3::translation(0.1 + slide, 0.0, 0.05);
+        hand.push(o * rel, &[0.2 + 0.1 * (t % 2) as f64]);
+    }
+    let before = hand.clone();
+    smooth::hold_grasp(&mut hand, &objects, 10..=29, |_| {}).unwrap();
+    let rel = |t: usize| objects[t].inverse() * hand.wrists[t];
+    let mean_x = (10..=29)
+        .map(|t| (objects[t].inverse() * before.wrists[t]).translation.x)
+        .sum::<f64>()
+        / 20.0;
+    for t in 10..=29 {
+        let r = rel(t);
+        assert!((r.translation.x - mean_x).abs() < 1e-12, "frame {t}");
+        assert!((r.translation.z - 0.05).abs() < 1e-12);
+        assert!(r.rotation.angle() < 1e-9);
+        assert!(
+            (hand.q(t)[0] - 0.25).abs() < 1e-12,
+            "frame {t}: {:?}",
+            hand.q(t)
+        );
+    }
+    for t in (0..10).chain(30..n) {
+        assert_eq!(
+            hand.wrists[t], before.wrists[t],
+            "frame {t} is outside the range"
+        );
+        assert_eq!(hand.q(t), before.q(t));
+    }
+    assert!(metrics_slide(&before, &objects, 10..=29) > 1.5e-3);
+    assert!(metrics_slide(&hand, &objects, 10..=29) < 1e-12);
+}
+
+/// The largest distance of the wrist, in the object's frame, from its mean over `range` [m].
+fn metrics_slide(
+    hand: &HandPath,
+    objects: &[Isometry3<f64>],
+    range: std::ops::RangeInclusive<usize>,
+) -> f64 {
+    let rel: Vec<Vector3<f64>> = range
+        .map(|t| (objects[t].inverse() * hand.wrists[t]).translation.vector)
+        .collect();
+    let mean = rel.iter().sum::<Vector3<f64>>() / rel.len() as f64;
+    rel.iter().map(|r| (r - mean).norm()).fold(0.0, f64::max)
+}
+
 /// Smoothing the IK hand costs little contact accuracy ("drift", paper Table 3).
 #[test]
 fn smoothing_drift_is_small() {
