@@ -306,7 +306,7 @@ fn link_pass(
 }
 
 /// The hand's link shapes against the barrier shapes, with bounding boxes for culling.
-struct LinkClearance<'a> {
+pub(crate) struct LinkClearance<'a> {
     /// `(link index, shape)` for every collision shape of the hand.
     hand: Vec<(usize, &'a CollisionShape)>,
     barriers: Vec<(Aabb, &'a CollisionShape)>,
@@ -314,7 +314,7 @@ struct LinkClearance<'a> {
 }
 
 impl<'a> LinkClearance<'a> {
-    fn new(robot: &'a Robot, barriers: &'a [CollisionShape], clearance: f64) -> Self {
+    pub(crate) fn new(robot: &'a Robot, barriers: &'a [CollisionShape], clearance: f64) -> Self {
         let hand = robot
             .links()
             .iter()
@@ -359,7 +359,7 @@ impl<'a> LinkClearance<'a> {
     }
 
     /// The smallest link-barrier distance within the clearance, its normal and its barrier.
-    fn nearest(&self, poses: &[Isometry3<f64>]) -> Option<(f64, Vector3<f64>, usize)> {
+    pub(crate) fn nearest(&self, poses: &[Isometry3<f64>]) -> Option<(f64, Vector3<f64>, usize)> {
         let mut best: Option<(f64, Vector3<f64>, usize)> = None;
         self.each_close(poses, |d, n, j| {
             if best.is_none_or(|b| d < b.0) {

@@ -198,6 +198,53 @@ pub fn hold_grasp(
     Ok(())
 }
 
+/// Where the held grasp comes nearer a barrier than the per-frame solution did, the
+/// per-frame solution comes back: at every frame `t` of `range` with `keep[t - start]`, the
+/// hand is `per_frame`'s, and the frames within `frames` of it blend from the held grasp to
+/// it in the object's frame with a weight falling linearly to 0 (translation and joints
+/// linearly, rotation by nlerp). Returns the frames changed.
+pub fn release_held(
+    hand: &mut HandPath,
+    per_frame: &HandPath,
+    objects: &[Isometry3<f64>],
+    range: RangeInclusive<usize>,
+    keep: &[bool],
+    frames: usize,
+) -> usize {
+    let (a, b) = (*range.start(), *range.end());
+    if a > b || b >= hand.len() || keep.len() != b - a + 1 || per_frame.len() != hand.len() {
+        return 0;
+    }
+    let weight = |t: usize| -> f64 {
+        keep.iter()
+            .enumerate()
+            .filter(|&(_, &k)| k)
+            .map(|(i, _)| 1.0 - (a + i).abs_diff(t) as f64 / (frames as f64 + 1.0))
+            .fold(0.0, f64::max)
+    };
+    let dof = hand.dof;
+    let mut changed = 0;
+    for t in a..=b {
+        let w = weight(t);
+        if w <= 0.0 {
+            continue;
+        }
+        let held = objects[t].inverse() * hand.wrists[t];
+        let own = objects[t].inverse() * per_frame.wrists[t];
+        let rel = Isometry3::from_parts(
+            Translation3::from(held.translation.vector.lerp(&own.translation.vector, w)),
+            held.rotation.nlerp(&own.rotation, w),
+        );
+        hand.wrists[t] = objects[t] * rel;
+        for j in 0..dof {
+            let (h, o) = (hand.joints[t * dof + j], per_frame.joints[t * dof + j]);
+            hand.joints[t * dof + j] = h + w * (o - h);
+        }
+        changed += 1;
+    }
+    changed
+}
+
 /// Stage 5c: no step at the ends of the contact segment. Inside `range` the hand is the
 /// (smoothed) IK solution, outside it the rigid transfer `base`; where they differ at the
 /// first and last frame of the range, the hand would jump between two output frames (a

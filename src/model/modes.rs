@@ -96,7 +96,9 @@ pub enum GraspMode {
     #[default]
     PerFrame,
     /// One grasp for the whole segment: the average of the frames' IK solutions in the
-    /// object's frame, placed on the object at every frame (`hand::smooth::hold_grasp`).
+    /// object's frame, placed on the object at every frame (`hand::smooth::hold_grasp`),
+    /// except near a barrier the per-frame solution kept clear of
+    /// (`hand::smooth::release_held`).
     Held,
 }
 

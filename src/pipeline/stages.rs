@@ -171,19 +171,22 @@ pub(super) fn contact_ik(
     // Stage 5: smoothing inside the contact segment.
     let clock = Instant::now();
     let range = object.plan.segment.start..=object.plan.t_end_new();
+    let ease = ((EASE_S * demo.fps).round() as usize).max(1);
     let (mut hand, _) = smooth::run(&raw, range.clone(), &smooth::Params::default())
         .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
     if config.params.grasp == GraspMode::Held {
         let path = object.path();
         let objects: Vec<_> = (0..path.len()).map(|t| path.pose(t)).collect();
+        let per_frame = hand.clone();
         smooth::hold_grasp(&mut hand, &objects, range.clone(), |q| {
             robot.clamp(q);
         })
         .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
+        let keep = nearer_barriers(robot, shapes, &hand, &per_frame, range.clone());
+        smooth::release_held(&mut hand, &per_frame, &objects, range.clone(), &keep, ease);
     }
     // Stage 5c: no jump between the IK hand and the rigid transfer at the segment's ends:
     // the difference fades out over `EASE_S` outside it.
-    let ease = ((EASE_S * demo.fps).round() as usize).max(1);
     smooth::ease_ends(&mut hand, base, range, ease, |q| {
         robot.clamp(q);
     });
@@ -202,6 +205,33 @@ pub(super) fn contact_ik(
         guard_with,
     };
     Ok((hand, ik))
+}
+
+/// Reach within which a held grasp is checked against the barriers [m]: the IK's barrier
+/// hinge (5 mm) plus room.
+const HELD_BARRIER_REACH_M: f64 = 0.01;
+
+/// The frames of `range` where the held grasp `held` comes nearer a barrier (within
+/// [`HELD_BARRIER_REACH_M`]) than the per-frame solution did: there the per-frame solution
+/// comes back ([`smooth::release_held`]).
+fn nearer_barriers(
+    robot: &Robot,
+    shapes: &[CollisionShape],
+    held: &HandPath,
+    per_frame: &HandPath,
+    range: std::ops::RangeInclusive<usize>,
+) -> Vec<bool> {
+    let links = crate::hand::pushout::LinkClearance::new(robot, shapes, HELD_BARRIER_REACH_M);
+    let mut poses = robot.new_link_poses();
+    let mut distance = |hand: &HandPath, t: usize| {
+        robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut poses);
+        links
+            .nearest(&poses)
+            .map_or(HELD_BARRIER_REACH_M, |(d, _, _)| d)
+    };
+    range
+        .map(|t| distance(held, t) < distance(per_frame, t) - 1e-4)
+        .collect()
 }
 
 /// Stage 5b (non-penetrating objective): neither the smoothing, nor the fade at the

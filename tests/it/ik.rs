@@ -458,6 +458,33 @@ fn a_held_grasp_is_one_pose_in_the_objects_frame() {
     assert!(metrics_slide(&hand, &objects, 10..=29) < 1e-12);
 }
 
+/// Where a held grasp must give way (a barrier), the per-frame solution comes back at that
+/// frame and blends into the held grasp over the neighbouring frames.
+#[test]
+fn a_held_grasp_gives_way_to_the_per_frame_hand_where_asked() {
+    let n = 40;
+    let objects: Vec<Isometry3<f64>> = (0..n)
+        .map(|t| Isometry3::translation(0.01 * t as f64, 0.0, 0.9))
+        .collect();
+    let mut per_frame = HandPath::with_capacity(n, 1);
+    let mut held = HandPath::with_capacity(n, 1);
+    for o in &objects {
+        per_frame.push(o * Isometry3::translation(0.1, 0.0, 0.05), &[0.4]);
+        held.push(o * Isometry3::translation(0.1, 0.0, 0.02), &[0.2]);
+    }
+    let mut keep = vec![false; 20];
+    keep[10] = true; // frame 20
+    let changed = smooth::release_held(&mut held, &per_frame, &objects, 10..=29, &keep, 4);
+    assert_eq!(changed, 9);
+    let z = |t: usize| (objects[t].inverse() * held.wrists[t]).translation.z;
+    assert!((z(20) - 0.05).abs() < 1e-12);
+    assert!((held.q(20)[0] - 0.4).abs() < 1e-12);
+    // One frame away: 4/5 of the way; five frames away: the held grasp.
+    assert!((z(21) - (0.02 + 0.8 * 0.03)).abs() < 1e-12, "{}", z(21));
+    assert!((z(19) - z(21)).abs() < 1e-12);
+    assert!((z(25) - 0.02).abs() < 1e-12 && (z(15) - 0.02).abs() < 1e-12);
+}
+
 /// The largest distance of the wrist, in the object's frame, from its mean over `range` [m].
 fn metrics_slide(
     hand: &HandPath,
