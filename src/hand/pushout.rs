@@ -31,6 +31,7 @@ use std::time::Instant;
 
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
 use rapier3d_f64::parry::bounding_volume::{Aabb, BoundingVolume};
+use rapier3d_f64::parry::math::Pose;
 use rapier3d_f64::parry::query;
 use serde::{Deserialize, Serialize};
 
@@ -309,24 +310,22 @@ fn link_pass(
 pub(crate) struct LinkClearance<'a> {
     /// `(link index, shape)` for every collision shape of the hand.
     hand: Vec<(usize, &'a CollisionShape)>,
-    barriers: Vec<(Aabb, &'a CollisionShape)>,
+    /// Every barrier's shape with its world pose and bounding box.
+    barriers: Vec<(Pose, Aabb, &'a CollisionShape)>,
     clearance: f64,
 }
 
 impl<'a> LinkClearance<'a> {
     pub(crate) fn new(robot: &'a Robot, barriers: &'a [CollisionShape], clearance: f64) -> Self {
-        let hand = robot
-            .links()
-            .iter()
-            .enumerate()
-            .flat_map(|(i, l)| l.collision.iter().map(move |cs| (i, cs)))
-            .collect();
         let barriers = barriers
             .iter()
-            .map(|b| (b.shape.compute_aabb(&to_pose(&b.shape_pose)), b))
+            .map(|b| {
+                let pose = to_pose(&b.shape_pose);
+                (pose, b.shape.compute_aabb(&pose), b)
+            })
             .collect();
         LinkClearance {
-            hand,
+            hand: robot.collision_shapes(),
             barriers,
             clearance,
         }
@@ -338,16 +337,15 @@ impl<'a> LinkClearance<'a> {
         for &(link, cs) in &self.hand {
             let pose = to_pose(&(poses[link] * cs.shape_pose));
             let aabb = cs.shape.compute_aabb(&pose).loosened(self.clearance);
-            for (j, (bb, barrier)) in self.barriers.iter().enumerate() {
+            for (j, (bpose, bb, barrier)) in self.barriers.iter().enumerate() {
                 if !aabb.intersects(bb) {
                     continue;
                 }
-                let bpose = to_pose(&barrier.shape_pose);
                 // Unsupported pairs (none among the shapes URDFs and scenes give) are skipped.
                 if let Ok(Some(c)) = query::contact(
                     &pose,
                     cs.shape.as_ref(),
-                    &bpose,
+                    bpose,
                     barrier.shape.as_ref(),
                     self.clearance,
                 ) {
@@ -429,6 +427,33 @@ mod tests {
         .unwrap()
     }
 
+    /// The one-finger hand moving along x from -0.3 m in 1 cm steps over `n` frames, joints at
+    /// 0, in contact over `start..=end`: positions, plan, robot, hand.
+    fn sweep_along_x(
+        n: usize,
+        start: usize,
+        end: usize,
+    ) -> (Vec<Vector3<f64>>, WarpPlan, Robot, HandPath) {
+        let segment = ContactSegment {
+            start,
+            end,
+            gap_frames: 0,
+        };
+        let positions: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new(-0.3 + 0.01 * i as f64, 0.0, 0.0))
+            .collect();
+        let plan = WarpPlan::identity(&positions, segment);
+        let robot = one_finger();
+        let mut hand = HandPath::with_capacity(n, robot.dof());
+        for p in &positions {
+            hand.push(
+                Isometry3::translation(p.x, p.y, p.z),
+                &vec![0.0; robot.dof()],
+            );
+        }
+        (positions, plan, robot, hand)
+    }
+
     /// The hulls alone (the ball pass), without names or shapes.
     fn hulls(hulls: &[Barrier]) -> Barriers<'_> {
         Barriers {
@@ -446,23 +471,7 @@ mod tests {
     #[test]
     fn the_link_pass_keeps_a_long_finger_out_of_a_barrier_the_wrist_ball_misses() {
         let n = 60;
-        let segment = ContactSegment {
-            start: 25,
-            end: 35,
-            gap_frames: 0,
-        };
-        let positions: Vec<Vector3<f64>> = (0..n)
-            .map(|i| Vector3::new(-0.3 + 0.01 * i as f64, 0.0, 0.0))
-            .collect();
-        let plan = WarpPlan::identity(&positions, segment);
-        let robot = one_finger();
-        let mut hand = HandPath::with_capacity(n, robot.dof());
-        for p in &positions {
-            hand.push(
-                Isometry3::from_parts(Translation3::from(*p), UnitQuaternion::identity()),
-                &vec![0.0; robot.dof()],
-            );
-        }
+        let (positions, plan, robot, hand) = sweep_along_x(n, 25, 35);
         let center = Vector3::new(-0.2, 0.0, -0.2);
         let shape = CollisionShape::new(
             crate::geometry::shape::ShapeKind::Box {
@@ -601,24 +610,7 @@ mod tests {
     /// the walls they are in, rather than working on.
     #[test]
     fn the_link_pass_reports_a_gap_too_narrow_for_the_hand() {
-        let n = 40;
-        let segment = ContactSegment {
-            start: 30,
-            end: 35,
-            gap_frames: 0,
-        };
-        let positions: Vec<Vector3<f64>> = (0..n)
-            .map(|i| Vector3::new(-0.3 + 0.01 * i as f64, 0.0, 0.0))
-            .collect();
-        let plan = WarpPlan::identity(&positions, segment);
-        let robot = one_finger();
-        let mut hand = HandPath::with_capacity(n, robot.dof());
-        for p in &positions {
-            hand.push(
-                Isometry3::from_parts(Translation3::from(*p), UnitQuaternion::identity()),
-                &vec![0.0; robot.dof()],
-            );
-        }
+        let (_, plan, robot, hand) = sweep_along_x(40, 30, 35);
         let wall = |y: f64| {
             CollisionShape::new(
                 crate::geometry::shape::ShapeKind::Box {

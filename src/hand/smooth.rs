@@ -215,18 +215,32 @@ pub fn release_held(
     if a > b || b >= hand.len() || keep.len() != b - a + 1 || per_frame.len() != hand.len() {
         return 0;
     }
-    let weight = |t: usize| -> f64 {
-        keep.iter()
-            .enumerate()
-            .filter(|&(_, &k)| k)
-            .map(|(i, _)| 1.0 - (a + i).abs_diff(t) as f64 / (frames as f64 + 1.0))
-            .fold(0.0, f64::max)
-    };
+    // Distance of each frame to the nearest kept frame, one pass each way.
+    let m = keep.len();
+    let mut near = vec![usize::MAX; m];
+    let mut last = None;
+    for i in 0..m {
+        if keep[i] {
+            last = Some(i);
+        }
+        if let Some(k) = last {
+            near[i] = i - k;
+        }
+    }
+    last = None;
+    for i in (0..m).rev() {
+        if keep[i] {
+            last = Some(i);
+        }
+        if let Some(k) = last {
+            near[i] = near[i].min(k - i);
+        }
+    }
     let dof = hand.dof;
     let mut changed = 0;
     for t in a..=b {
-        let w = weight(t);
-        if w <= 0.0 {
+        let w = 1.0 - near[t - a] as f64 / (frames as f64 + 1.0);
+        if near[t - a] > frames {
             continue;
         }
         let held = objects[t].inverse() * hand.wrists[t];

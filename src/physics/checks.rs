@@ -216,16 +216,6 @@ impl PenetrationAcc {
     }
 }
 
-/// The hand's collision shapes in link order: `(link index, shape)`.
-pub fn hand_shapes(robot: &Robot) -> Vec<(usize, &CollisionShape)> {
-    robot
-        .links()
-        .iter()
-        .enumerate()
-        .flat_map(|(i, l)| l.collision.iter().map(move |cs| (i, cs)))
-        .collect()
-}
-
 /// Fills `out` with the hand's shapes placed at `link_poses`, owners = link indices.
 pub fn place_hand<'a>(
     shapes: &[(usize, &'a CollisionShape)],

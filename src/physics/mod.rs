@@ -594,7 +594,7 @@ fn check_replay(
     let segment = demo.contact_segment();
     let (pos_err, rot_err, tracking) = checks::tracking_errors(demo, &trace.object);
     let touch_reach = params.finger_skin_m + params.touch_tolerance_m;
-    let shapes = checks::hand_shapes(robot);
+    let shapes = robot.collision_shapes();
     let mut link_poses = robot.new_link_poses();
     let mut hand_placed = Vec::new();
     let touching: Vec<bool> = demo
@@ -818,7 +818,7 @@ fn penetrations(
     support_names: &[String],
     params: &Params,
 ) -> PenetrationRun {
-    let shapes = checks::hand_shapes(robot);
+    let shapes = robot.collision_shapes();
     let link_names: Vec<String> = robot.links().iter().map(|l| l.name.clone()).collect();
     let object_names = vec![demo.object.name.clone()];
     let barrier_placed = place_fixed(solid);

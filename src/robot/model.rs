@@ -189,6 +189,15 @@ impl Robot {
         &self.joints
     }
 
+    /// Every collision shape of the hand in link order: `(link index, shape)`.
+    pub fn collision_shapes(&self) -> Vec<(usize, &CollisionShape)> {
+        self.links
+            .iter()
+            .enumerate()
+            .flat_map(|(i, l)| l.collision.iter().map(move |cs| (i, cs)))
+            .collect()
+    }
+
     /// One link.
     pub fn link(&self, id: LinkId) -> &Link {
         &self.links[id.index()]

@@ -608,7 +608,13 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
                 .as_f64()
                 .unwrap()
         );
-        assert!(r[col("grasp_slide_mm")].parse::<f64>().unwrap() >= 0.0);
+        let own: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("report.json")).unwrap()).unwrap();
+        let slide: f64 = r[col("grasp_slide_mm")].parse().unwrap();
+        assert_eq!(
+            slide,
+            own["metrics"]["grasp_slide_mm"]["warped"].as_f64().unwrap()
+        );
     }
     assert_eq!(
         b["grasp_slide_mm"]["contact_ik"]["n"].as_u64(),

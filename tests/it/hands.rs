@@ -41,9 +41,8 @@ fn correspondences_per_frame(demo: &Path) -> usize {
         .unwrap_or(0)
 }
 
-/// Synthesizes `object` with `robot` into `dir/<object>.demo.json` and returns the file.
-fn synth(robot: &Path, object: &str, dir: &Path, extra: &[&str]) -> PathBuf {
-    let demo = dir.join(format!("{object}.demo.json"));
+/// Runs `synth --motion lift_place` of `object` with `robot` into `out`, plus `extra`.
+fn run_synth(robot: &Path, object: &str, out: &Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec![
         "synth",
         "--object",
@@ -53,17 +52,29 @@ fn synth(robot: &Path, object: &str, dir: &Path, extra: &[&str]) -> PathBuf {
         "--motion",
         "lift_place",
         "--out",
-        s(&demo),
+        s(out),
     ];
     args.extend_from_slice(extra);
-    let o = dexwarp(&args);
+    dexwarp(&args)
+}
+
+/// Synthesizes `object` with `robot` into `dir/<object>.demo.json` and returns the file and
+/// what synth said.
+fn synth_said(robot: &Path, object: &str, dir: &Path, extra: &[&str]) -> (PathBuf, String) {
+    let demo = dir.join(format!("{object}.demo.json"));
+    let o = run_synth(robot, object, &demo, extra);
     assert!(
         o.status.success(),
         "synth {object} with {}: {}",
         robot.display(),
         stderr(&o)
     );
-    demo
+    (demo, stderr(&o))
+}
+
+/// [`synth_said`], the file only.
+fn synth(robot: &Path, object: &str, dir: &Path, extra: &[&str]) -> PathBuf {
+    synth_said(robot, object, dir, extra).0
 }
 
 /// `validate` without `--scene`; returns the report.
@@ -183,19 +194,12 @@ fn validate_fails_the_process_only_with_strict() {
 fn a_failed_synth_says_what_it_needs_and_leaves_no_files() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("new").join("cube.demo.json");
-    let o = dexwarp(&[
-        "synth",
-        "--object",
+    let o = run_synth(
+        &mesh_hand(),
         "cube",
-        "--robot",
-        s(&mesh_hand()),
-        "--motion",
-        "lift_place",
-        "--tips",
-        "index_tip,no_such_link",
-        "--out",
-        s(&out),
-    ]);
+        &out,
+        &["--tips", "index_tip,no_such_link"],
+    );
     assert!(!o.status.success());
     let e = stderr(&o);
     assert!(e.contains("--tips") && e.contains("no_such_link"), "{e}");
@@ -213,17 +217,7 @@ fn a_failed_synth_says_what_it_needs_and_leaves_no_files() {
 <joint name="j" type="revolute"><parent link="palm"/><child link="f"/><axis xyz="1 0 0"/><limit lower="0" upper="1.5" effort="1" velocity="1"/></joint></robot>"#,
     )
     .unwrap();
-    let o = dexwarp(&[
-        "synth",
-        "--object",
-        "cube",
-        "--robot",
-        s(&urdf),
-        "--motion",
-        "lift_place",
-        "--out",
-        s(&out),
-    ]);
+    let o = run_synth(&urdf, "cube", &out, &[]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("--tips a,b,c"), "{}", stderr(&o));
     assert!(!out.exists());
@@ -274,11 +268,19 @@ fn config_copy(name: &str, demo: &Path, dir: &Path) -> PathBuf {
     p
 }
 
-/// Synth, validate, warp with a built-in config's copy, validate the warp; returns the
-/// verdicts (original, warped) and the warped report.
-fn community_case(urdf: &Path, object: &str, config: &str) -> (String, String, serde_json::Value) {
+/// What one hand did with one object: synth's words, the verdicts (original, warped) and
+/// the warped report.
+struct Case {
+    said: String,
+    original: String,
+    warped: String,
+    report: serde_json::Value,
+}
+
+/// Synth, validate, warp with a built-in config's copy, validate the warp.
+fn community_case(urdf: &Path, object: &str, config: &str) -> Case {
     let dir = tempfile::tempdir().unwrap();
-    let demo = synth(urdf, object, dir.path(), &[]);
+    let (demo, said) = synth_said(urdf, object, dir.path(), &[]);
     let n = correspondences_per_frame(&demo);
     assert!((10..=100).contains(&n), "{n} correspondences per frame");
     let original = validate(&demo, &dir.path().join("check"));
@@ -296,7 +298,12 @@ fn community_case(urdf: &Path, object: &str, config: &str) -> (String, String, s
         v(&warped),
         warped["physics"]["reasons"]
     );
-    (v(&original), v(&warped), warped)
+    Case {
+        said,
+        original: v(&original),
+        warped: v(&warped),
+        report: warped,
+    }
 }
 
 #[test]
@@ -345,12 +352,12 @@ fn community_hand(folder: &str, file: &str) -> Option<PathBuf> {
 /// warped) that must hold; `None` leaves a verdict unchecked (a known failure, reported).
 fn check_hand(urdf: &Path, cases: &[(&str, &str, Option<&str>, Option<&str>)]) {
     for &(object, config, original, warped) in cases {
-        let (o, w, _) = community_case(urdf, object, config);
+        let case = community_case(urdf, object, config);
         if let Some(v) = original {
-            assert_eq!(o, v, "{object}: original");
+            assert_eq!(case.original, v, "{object}: original");
         }
         if let Some(v) = warped {
-            assert_eq!(w, v, "{object}: warped with {config}");
+            assert_eq!(case.warped, v, "{object}: warped with {config}");
         }
     }
 }
@@ -366,8 +373,12 @@ fn ours_allegro_synth_warp_and_physics() {
         &repo("robots/allegro_hand.urdf"),
         &[("apple", "allegro_apple_plate", Some("pass"), Some("pass"))],
     );
-    let (o, w, warped) = community_case(&repo("robots/allegro_hand.urdf"), "cube", "cube_messy");
-    assert_eq!((o.as_str(), w.as_str()), ("pass", "pass"));
+    let case = community_case(&repo("robots/allegro_hand.urdf"), "cube", "cube_messy");
+    assert_eq!(
+        (case.original.as_str(), case.warped.as_str()),
+        ("pass", "pass")
+    );
+    let warped = &case.report;
     let c = &warped["constraints"];
     assert!(c["hand_link_frames_moved"].as_u64().unwrap() > 0, "{c}");
     let touch = &warped["physics"]["penetration"]["hand_barrier"];
@@ -419,25 +430,14 @@ fn community_ability_synth_warp_and_physics() {
     // and two fingers, whose demonstration passes.
     check_hand(
         &urdf,
-        &[
-            ("apple", "allegro_apple_plate", Some("pass"), Some("pass")),
-            ("cube", "cube_messy", Some("pass"), Some("pass")),
-        ],
+        &[("apple", "allegro_apple_plate", Some("pass"), Some("pass"))],
     );
-    let dir = tempfile::tempdir().unwrap();
-    let o = dexwarp(&[
-        "synth",
-        "--object",
-        "cube",
-        "--robot",
-        s(&urdf),
-        "--motion",
-        "lift_place",
-        "--out",
-        s(&dir.path().join("cube.demo.json")),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let said = stderr(&o);
+    let case = community_case(&urdf, "cube", "cube_messy");
+    assert_eq!(
+        (case.original.as_str(), case.warped.as_str()),
+        ("pass", "pass")
+    );
+    let said = &case.said;
     assert!(said.contains("grasp: thumb and two fingers"), "{said}");
     assert!(
         said.contains("every finger: the grasp holds the object"),
@@ -475,17 +475,7 @@ fn community_panda_gripper_synth_warp_and_physics() {
     );
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("apple.demo.json");
-    let o = dexwarp(&[
-        "synth",
-        "--object",
-        "apple",
-        "--robot",
-        s(&urdf),
-        "--motion",
-        "lift_place",
-        "--out",
-        s(&out),
-    ]);
+    let o = run_synth(&urdf, "apple", &out, &[]);
     assert!(!o.status.success());
     assert!(
         stderr(&o).contains("did not reach the grasp"),
@@ -590,17 +580,7 @@ fn synth_keeps_only_a_grasp_that_holds() {
 fn synth_refusal_names_the_jaws_span_and_the_object_width() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("apple.demo.json");
-    let o = dexwarp(&[
-        "synth",
-        "--object",
-        "apple",
-        "--robot",
-        s(&repo("robots/parallel_gripper.urdf")),
-        "--motion",
-        "lift_place",
-        "--out",
-        s(&out),
-    ]);
+    let o = run_synth(&repo("robots/parallel_gripper.urdf"), "apple", &out, &[]);
     assert!(!o.status.success());
     let err = stderr(&o);
     assert!(
