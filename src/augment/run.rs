@@ -27,11 +27,12 @@ use super::spec::Spec;
 use super::stats::{Row, RunId, STRETCHED, Stats, Timing, classify};
 use crate::batch::Shard;
 use crate::model::Demo;
+use crate::model::WarpConfig;
 use crate::model::demo::relative_path;
 use crate::model::json::{read_json, write_atomic, write_json_atomic};
 use crate::model::report::{REPORT_FORMAT, Report};
 use crate::output::progress;
-use crate::pipeline::{self, HandMethod, Inputs, Options};
+use crate::pipeline::{self, HandMethod, Inputs, Loaded, Options};
 use crate::{Error, Limits, Result};
 
 /// The `format` value of `augment.json`.
@@ -84,6 +85,9 @@ pub fn run(o: &AugmentOptions) -> Result<Augment> {
     let spec = Spec::load(&o.variations, &o.limits)?;
     let demo = Demo::load(&o.demo, &o.limits)?;
     let ctx = Context::new(&spec, &demo, &o.demo, &o.limits)?;
+    // What every sample shares, loaded once: the demonstration as the samples' configs name
+    // it (by its absolute path), its robot and its object's mesh.
+    let loaded = Loaded::new(Demo::load(&ctx.demo_path, &o.limits)?, &o.limits)?;
     std::fs::create_dir_all(&o.out).map_err(|e| Error::write(&o.out, e))?;
     let out = std::fs::canonicalize(&o.out).map_err(|e| Error::read(&o.out, e))?;
     let run_file = RunFile {
@@ -108,7 +112,7 @@ pub fn run(o: &AugmentOptions) -> Result<Augment> {
         indices
             .par_iter()
             .map(|&i| {
-                let r = run_sample(&spec, &ctx, o, &out, i);
+                let r = run_sample(&spec, &ctx, &loaded, o, &out, i);
                 bar.inc(1);
                 r
             })
@@ -319,6 +323,7 @@ fn as_read_back(report: Report) -> Report {
 fn run_sample(
     spec: &Spec,
     ctx: &Context,
+    loaded: &Loaded,
     o: &AugmentOptions,
     out: &Path,
     index: u64,
@@ -356,7 +361,7 @@ fn run_sample(
     }
     stages.insert("sample".into(), clock.elapsed().as_secs_f64());
     let stage = out.join(".work").join(&s.id);
-    let (report, baseline) = execute(&s, ctx, o, &stage, &mut stages);
+    let (report, baseline) = execute(&s, ctx, loaded, o, &stage, &mut stages);
     fill(&mut row, &as_read_back(report), spec, &stage, &stretched);
     if let Some(b) = baseline {
         fill_baseline(&mut row, &as_read_back(b), spec, &stage, &stretched);
@@ -389,12 +394,13 @@ fn run_sample(
 fn execute(
     s: &Sample,
     ctx: &Context,
+    loaded: &Loaded,
     o: &AugmentOptions,
     stage: &Path,
     stages: &mut BTreeMap<String, f64>,
 ) -> (Report, Option<Report>) {
     let clock = Instant::now();
-    let inputs = match prepare(s, ctx, o, stage) {
+    let inputs = match prepare(s, ctx, loaded, o, stage) {
         Ok(inputs) => inputs,
         Err(e) => {
             let message = e.to_string();
@@ -440,8 +446,15 @@ fn execute(
     (contact, baseline)
 }
 
-/// The sample's config (and scene) written into `stage`, and the run's inputs loaded from it.
-fn prepare(s: &Sample, ctx: &Context, o: &AugmentOptions, stage: &Path) -> Result<Inputs> {
+/// The sample's config (and scene) written into `stage`, and the run's inputs: the config
+/// read back from it with its scene, and the demonstration, robot and mesh loaded before.
+fn prepare(
+    s: &Sample,
+    ctx: &Context,
+    loaded: &Loaded,
+    o: &AugmentOptions,
+    stage: &Path,
+) -> Result<Inputs> {
     if stage.exists() {
         std::fs::remove_dir_all(stage).map_err(|e| Error::write(stage, e))?;
     }
@@ -460,7 +473,8 @@ fn prepare(s: &Sample, ctx: &Context, o: &AugmentOptions, stage: &Path) -> Resul
     }
     let config_path = stage.join("config.json");
     write_json_atomic(&config_path, &config)?;
-    Inputs::load(&config_path, None, &o.limits)
+    let config = WarpConfig::load(&config_path, &o.limits)?;
+    Inputs::with(config, loaded.clone(), &o.limits)
 }
 
 fn sample_options(o: &AugmentOptions, hand: HandMethod) -> Options {

@@ -37,6 +37,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
+use rapier3d_f64::parry::mass_properties::MassProperties;
 use rapier3d_f64::parry::math::{Pose, Vector};
 use rapier3d_f64::parry::shape::SharedShape;
 use rapier3d_f64::parry::transformation::vhacd::{VHACD, VHACDParameters};
@@ -90,6 +91,10 @@ pub struct ObjectShape {
     pub parts: Vec<SharedShape>,
     /// The same parts as one compound, for the Rapier collider.
     pub compound: SharedShape,
+    /// The compound's mass properties at unit density, computed once: Rapier would sum the
+    /// parts' tetrahedra again for every world a replay, a stability sample or a margin
+    /// condition builds.
+    pub unit_mass: MassProperties,
     /// How the parts were obtained.
     pub method: ShapeMethod,
     /// Wall time of the decomposition when it was first computed [s]; a cache hit returns
@@ -157,9 +162,11 @@ fn build(mesh: &Mesh, params: &DecompositionParams) -> Option<ObjectShape> {
     };
     let compound =
         SharedShape::compound(parts.iter().map(|p| (Pose::IDENTITY, p.clone())).collect());
+    let unit_mass = compound.mass_properties(1.0);
     Some(ObjectShape {
         parts,
         compound,
+        unit_mass,
         method,
         build_s: start.elapsed().as_secs_f64(),
     })

@@ -4,8 +4,10 @@
 //! Files are identified by path and SHA-256 of their content (FIPS 180-4: the one hash a
 //! user can check with `sha256sum`).
 
-use std::collections::BTreeMap;
-use std::path::Path;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock};
+use std::time::SystemTime;
 
 use serde::{Deserialize, Serialize};
 
@@ -26,18 +28,40 @@ pub struct InputFile {
 }
 
 impl InputFile {
-    /// `path` with the hash of its current content.
+    /// `path` with the hash of its current content. A file hashed before by this process
+    /// whose length and modification time are unchanged is not read again (`augment` and
+    /// `batch` name the same demonstration, robot and mesh in every report).
     pub fn of(path: &Path) -> InputFile {
+        let canonical = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
         InputFile {
-            path: std::fs::canonicalize(path)
-                .unwrap_or_else(|_| path.to_path_buf())
-                .display()
-                .to_string(),
-            sha256: std::fs::read(path)
-                .map(|b| sha256_hex(&b))
-                .unwrap_or_default(),
+            path: canonical.display().to_string(),
+            sha256: content_hash(&canonical).unwrap_or_default(),
         }
     }
+}
+
+/// The file's length and modification time: what says its content may have changed.
+type Stamp = (u64, Option<SystemTime>);
+
+fn content_hash(path: &Path) -> Option<String> {
+    static HASHES: OnceLock<Mutex<HashMap<PathBuf, (Stamp, String)>>> = OnceLock::new();
+    let hashes = HASHES.get_or_init(Mutex::default);
+    let stamp = |m: &std::fs::Metadata| (m.len(), m.modified().ok());
+    let before = stamp(&std::fs::metadata(path).ok()?);
+    if let Some((s, hash)) = hashes.lock().ok()?.get(path)
+        && *s == before
+        && before.1.is_some()
+    {
+        return Some(hash.clone());
+    }
+    let hash = sha256_hex(&std::fs::read(path).ok()?);
+    // Kept only when the file did not change while it was read.
+    if stamp(&std::fs::metadata(path).ok()?) == before
+        && let Ok(mut h) = hashes.lock()
+    {
+        h.insert(path.to_path_buf(), (before, hash.clone()));
+    }
+    Some(hash)
 }
 
 /// Where a report came from.
@@ -111,5 +135,19 @@ mod tests {
             sha256_hex(&vec![b'a'; 1_000_000]),
             "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0"
         );
+    }
+
+    #[test]
+    fn a_file_hashed_again_after_it_changed_gets_its_new_hash() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("demo.json");
+        std::fs::write(&path, b"abc").unwrap();
+        let first = InputFile::of(&path);
+        assert_eq!(first.sha256, sha256_hex(b"abc"));
+        assert_eq!(InputFile::of(&path), first);
+        std::fs::write(&path, b"abcd").unwrap();
+        assert_eq!(InputFile::of(&path).sha256, sha256_hex(b"abcd"));
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(InputFile::of(&path).sha256, "");
     }
 }

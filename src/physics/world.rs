@@ -460,12 +460,16 @@ fn with_object_and_scene(
     fixed: &[FixedItem<'_>],
     params: &Params,
 ) -> ReplayWorld {
+    // What Rapier's `.mass(mass)` computes (unit-density properties scaled to the mass),
+    // from the parts' properties computed once per object.
+    let mut mass_properties = object.unit_mass;
+    mass_properties.set_mass(mass, true);
     let (object_body, object_collider) = world.insert(
         RigidBodyBuilder::dynamic()
             .pose(to_pose(object_pose))
             .can_sleep(false),
         ColliderBuilder::new(object.compound.clone())
-            .mass(mass)
+            .mass_properties(mass_properties)
             .friction(params.object_friction)
             .user_data(Tag::Object as u128),
     );

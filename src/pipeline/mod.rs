@@ -125,13 +125,18 @@ impl Inputs {
     /// entry point; [`Inputs::load`] ends here too): loads the robot the demonstration names,
     /// the config's scene and the object mesh, and checks them against each other. The
     /// config's own `demo` is not read.
-    pub fn new(config: WarpConfig, mut demo: Demo, limits: &Limits) -> Result<Inputs> {
+    pub fn new(config: WarpConfig, demo: Demo, limits: &Limits) -> Result<Inputs> {
         crate::model::demo::require_file(&config.source, "scene", &config.scene)?;
-        let robot = demo.load_robot(limits)?;
-        demo.check_robot(&robot)?;
+        Inputs::with(config, Loaded::new(demo, limits)?, limits)
+    }
+
+    /// The inputs of a config with a demonstration, robot and mesh loaded before (`augment`
+    /// loads them once for all its samples): loads the config's scene and checks it.
+    pub fn with(config: WarpConfig, loaded: Loaded, limits: &Limits) -> Result<Inputs> {
+        crate::model::demo::require_file(&config.source, "scene", &config.scene)?;
         let scene = Scene::load(&config.scene, limits)?;
         config.check_scene(&scene)?;
-        let mesh = Mesh::load(&demo.object.mesh, nalgebra::Vector3::repeat(1.0), limits)?;
+        let Loaded { demo, robot, mesh } = loaded;
         Ok(Inputs {
             config,
             demo,
@@ -139,6 +144,26 @@ impl Inputs {
             scene,
             mesh,
         })
+    }
+}
+
+/// A demonstration with the robot it names and its object's mesh, loaded and checked against
+/// each other: the part of [`Inputs`] that does not depend on the config.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub demo: Demo,
+    pub robot: Robot,
+    pub mesh: Mesh,
+}
+
+impl Loaded {
+    /// Loads the robot `demo` names and its object's mesh, and checks `demo` against the
+    /// robot (its joints are put in the robot's order).
+    pub fn new(mut demo: Demo, limits: &Limits) -> Result<Loaded> {
+        let robot = demo.load_robot(limits)?;
+        demo.check_robot(&robot)?;
+        let mesh = Mesh::load(&demo.object.mesh, nalgebra::Vector3::repeat(1.0), limits)?;
+        Ok(Loaded { demo, robot, mesh })
     }
 }
 
