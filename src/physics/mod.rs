@@ -238,6 +238,30 @@
 //! as soon as it settled, skipped more (up to 1,829 steps per config, 1.12x on the mean) but
 //! cost frying-pan grasps at the slip limit (see `replay.rs`), so it is not done.
 //!
+//! What made it cheaper without changing an output (same 17 configs, release builds of
+//! 2eee92a and of this code, `scripts/physics_time.py --runs 3`, medians, one run on an idle
+//! 2-core machine): the x86-64-v3 build (above), the object's mass properties computed once
+//! per object instead of for every world (replay, stability samples, margin conditions),
+//! and, for `augment`, the demonstration, robot and mesh loaded once for all samples and
+//! each input file hashed once for the provenance. Physics per trajectory 0.602 s -> 0.422 s
+//! (1.43x; 1.21-1.85x per config; largest 1.139 -> 0.763 s), no verdict changed;
+//! `augment --count 200 --seed 1 --jobs 2` (one run each in turn): mug 15,386 -> 21,813
+//! samples per hour (1.42x), teapot 6,475 -> 8,801 (1.36x), the same samples kept with the
+//! same figures. A fused, single-unit build (`lto = "fat"`, `codegen-units = 1`) gave
+//! another 1.08x with the same outputs, but a release build of our crate alone takes
+//! minutes longer: not adopted.
+//!
+//! Why not the solver cut, now: with the x86-64-v3 build it gives 1.19x (mean physics 0.372
+//! -> 0.312 s over the 17 configs x 2 hands) and changes three verdicts, all on trajectories
+//! whose margin holds only at nominal friction and mass (fryingpan_change_tops baseline,
+//! teapot_pour_cups and teapot_pour_empty contact IK). How little it takes to flip those:
+//! inserting the hand's links into the world in reverse order, which changes nothing but
+//! the order of Rapier's constraints, turns both contact-IK teapots from pass into fail
+//! (mean position error 13.7 -> 22.1 mm, 9.2 -> 26.6 mm) and leaves every robust
+//! trajectory's verdict as it was (fryingpan_change_tops, fryingpan_island, mug_pass_wall,
+//! cube_messy: mean errors within 1.2 mm). A verdict without a margin is a draw at the edge;
+//! `--margin` says which ones are.
+//!
 //! Contact recycling is off ([`Params::contact_recycling`], see [`world`]): stale recycled
 //! contacts let open gripper jaws sliding 10 mm beside a box push it 21 mm.
 //!
