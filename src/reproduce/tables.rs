@@ -371,10 +371,12 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
             "D_WO contact IK [mm]",
             "physics baseline",
             "physics contact IK",
+            "margin baseline",
+            "margin contact IK",
         ]
         .map(String::from)
         .to_vec(),
-        note: "Stretched frames: output frames whose bracketing input step got more than one output frame (τ(s+1) − τ(s) > 1). Physics: verdict, then the failed reasons.".into(),
+        note: "Stretched frames: output frames whose bracketing input step got more than one output frame (τ(s+1) − τ(s) > 1). Physics: verdict, then the failed reasons. Margin: the weakest of the robustness conditions (friction μ, mass scale) under which the pass still holds, \"robust\" when it holds under all of them (μ 0.50 at 1.5x mass); a pass that holds only at μ 1.00 and 1.0x mass is at the edge, where a change as small as the order of the solver's constraints can flip it.".into(),
         ..Table::default()
     };
     let worst = |r: Option<&Report>| match r.and_then(|r| r.metrics.d_c_worst) {
@@ -400,9 +402,28 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
             cell(k.map(|r| r.metrics.d_wo_mm.warped), 1),
             verdict_reasons(b),
             verdict_reasons(k),
+            margin(b),
+            margin(k),
         ]);
     }
     t
+}
+
+/// The weakest condition a pass holds under (`μ 0.75 at 1.5x`, `robust` when it holds under
+/// all of them), for a table cell; `--` without a pass or a margin.
+fn margin(r: Option<&Report>) -> String {
+    let m = r
+        .and_then(|r| r.physics.as_ref())
+        .and_then(|p| p.measures.get("margin"));
+    let robust = m.and_then(|m| m.get("robust")).and_then(|v| v.as_bool());
+    let weakest = m
+        .and_then(|m| m.get("weakest"))
+        .and_then(|w| Some((w.get(0)?.as_f64()?, w.get(1)?.as_f64()?)));
+    match (weakest, robust) {
+        (Some(_), Some(true)) => "robust".into(),
+        (Some((mu, mass)), _) => format!("μ {mu:.2} at {mass:.1}x"),
+        _ => "--".into(),
+    }
 }
 
 /// The verdict followed by its reasons, for a table cell.
@@ -617,4 +638,44 @@ pub fn write_all(rep: &Reproduction) -> Result<()> {
     }
     write_atomic(&rep.out.join("summary.md"), summary.as_bytes())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::report::PhysicsSummary;
+
+    fn with_margin(verdict: &str, margin: serde_json::Value) -> Report {
+        let mut physics = PhysicsSummary {
+            verdict: verdict.into(),
+            ..PhysicsSummary::default()
+        };
+        physics.measures.insert("margin".into(), margin);
+        Report {
+            physics: Some(physics),
+            ..Report::default()
+        }
+    }
+
+    #[test]
+    fn the_margin_cell_names_the_weakest_condition_that_holds() {
+        let robust = with_margin(
+            "pass",
+            serde_json::json!({"robust": true, "weakest": [0.5, 1.5]}),
+        );
+        let edge = with_margin(
+            "pass",
+            serde_json::json!({"robust": false, "weakest": [1.0, 1.0]}),
+        );
+        let failed = with_margin(
+            "fail",
+            serde_json::json!({"robust": false, "weakest": null}),
+        );
+        let none = with_margin("pass", serde_json::Value::Null);
+        assert_eq!(margin(Some(&robust)), "robust");
+        assert_eq!(margin(Some(&edge)), "μ 1.00 at 1.0x");
+        assert_eq!(margin(Some(&failed)), "--");
+        assert_eq!(margin(Some(&none)), "--");
+        assert_eq!(margin(None), "--");
+    }
 }

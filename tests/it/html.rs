@@ -81,6 +81,39 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         assert!(md.contains("box_lift"), "{t}: {md}");
         assert!(out.join(format!("tables/{t}.csv")).is_file());
     }
+    // The compared runs (contact IK at 3.5 mm and the baseline) carry their robustness
+    // margin, and the comparison table says it for each passing hand.
+    let mut margins = 0;
+    for r in &rep.runs {
+        let margin = r
+            .report
+            .physics
+            .as_ref()
+            .and_then(|p| p.measures.get("margin"))
+            .filter(|m| !m.is_null());
+        let compared = ["lm_3.5mm", "baseline"].contains(&r.variant.name.as_str());
+        assert_eq!(margin.is_some(), compared, "{}", r.variant.name);
+        if let Some(m) = margin {
+            margins += 1;
+            let cell = match (m["robust"] == true, m["weakest"].as_array()) {
+                (true, _) => "robust".to_string(),
+                (false, Some(w)) => format!(
+                    "μ {:.2} at {:.1}x",
+                    w[0].as_f64().unwrap(),
+                    w[1].as_f64().unwrap()
+                ),
+                // No margin without a nominal pass.
+                (false, None) => {
+                    assert_eq!(r.report.physics.as_ref().unwrap().verdict, "fail");
+                    continue;
+                }
+            };
+            let md = std::fs::read_to_string(out.join("tables/baseline_comparison.md")).unwrap();
+            let row = md.lines().find(|l| l.starts_with("| box_lift")).unwrap();
+            assert!(row.contains(&cell), "{cell} not in {row}");
+        }
+    }
+    assert_eq!(margins, 2);
     let page = out.join("index.html");
     let html = std::fs::read_to_string(&page).unwrap();
     // Nothing is loaded from the network: the only URL allowed is the SVG namespace name.
