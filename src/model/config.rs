@@ -91,9 +91,10 @@ pub struct WarpParams {
     /// Bounding radius of the hand about the wrist for the hand's barrier push-out outside
     /// the contact segment [m] (`hand::pushout`); 0 turns it off. Default 0.05.
     pub hand_radius_m: f64,
-    /// How the hand holds the object over the contact segment: `per_frame` (default, the
-    /// paper: every frame keeps its IK solution) or `held` (one grasp, the average of the
-    /// frames' solutions in the object's frame, at every frame; `hand::smooth::hold_grasp`).
+    /// How the hand holds the object over the contact segment: `held` (default: one grasp,
+    /// the average of the frames' IK solutions in the object's frame, at every frame;
+    /// `hand::smooth::hold_grasp`) or `per_frame` (the paper: every frame keeps its IK
+    /// solution).
     pub grasp: GraspMode,
     /// Clearance every link of the hand keeps from every barrier outside the contact segment,
     /// the hand push-out's link pass [m] (`hand::pushout`); 0 turns it off. Default 0.002.
@@ -124,7 +125,7 @@ impl Default for WarpParams {
             retime: RetimeMode::Chord,
             continuous_speed: true,
             hand_radius_m: DEFAULT_HAND_RADIUS_M,
-            grasp: GraspMode::PerFrame,
+            grasp: GraspMode::Held,
             hand_clearance_m: DEFAULT_HAND_CLEARANCE_M,
             end_t_new: None,
             physics: None,

@@ -92,13 +92,13 @@ pub enum WarmStart {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum GraspMode {
-    /// Every frame keeps its own IK solution (the paper). Default.
-    #[default]
+    /// Every frame keeps its own IK solution (the paper).
     PerFrame,
     /// One grasp for the whole segment: the average of the frames' IK solutions in the
     /// object's frame, placed on the object at every frame (`hand::smooth::hold_grasp`),
     /// except near a barrier the per-frame solution kept clear of
-    /// (`hand::smooth::release_held`).
+    /// (`hand::smooth::release_held`). Default.
+    #[default]
     Held,
 }
 

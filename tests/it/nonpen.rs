@@ -229,12 +229,28 @@ fn smoothing_does_not_press_the_hand_in_where_time_jumps() {
     use dexwarp::hand::{baseline, guard, ik, smooth};
 
     let config = repo("scenes/configs/cube_messy2.json");
-    let run = warp(
+    // The default held grasp does not press in here (one grasp for the segment, no jump to
+    // average), and the guard keeps it within the tolerance too.
+    let held = warp(
         &config,
         Objective::NonPenetrating,
         Solver::Lm,
         HandMethod::Contact,
     );
+    let pen = held.report.constraints.hand_object_penetration_mm.unwrap();
+    assert!(pen.warped <= pen.original + 1.0 + 1e-6, "held: {pen:?}");
+    // Each frame with its own IK solution, the smoothing averages different grasps.
+    let mut inputs = Inputs::load(&config, None, &Limits::default()).unwrap();
+    inputs.config.params.grasp = dexwarp::model::GraspMode::PerFrame;
+    let run = pipeline::warp(
+        &inputs,
+        &Options::new(HandMethod::Contact)
+            .threshold_mm(Some(3.5))
+            .objective(Some(Objective::NonPenetrating))
+            .solver(Solver::Lm)
+            .physics(None),
+    )
+    .unwrap();
     let ik_summary = run.report.ik.as_ref().unwrap();
     let g = ik_summary.smoothing_guard.clone().unwrap();
     // The automatic tolerance: the original's own deepest penetration plus 1 mm.

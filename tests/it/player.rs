@@ -158,8 +158,8 @@ fn batch(manifest: &Path, out: &Path) {
 fn report_of_a_batch_renders_and_compare_reports_exactly_the_change() {
     let tmp = tempfile::tempdir().unwrap();
     let t = tmp.path();
-    // cube_messy2 passes with the baseline hand and fails with contact IK on the paper's
-    // objective at 3.5 mm (its smoothed hand presses 14.7 mm into the cube at frame 410;
+    // cube_messy2 passes with the baseline hand and fails with per-frame contact IK on the
+    // paper's objective at 3.5 mm (its smoothed hand presses 14.7 mm into the cube at frame 410;
     // README, Results).
     let same = manifest(t, "same.jsonl", "\"hand\": \"baseline\"");
     let changed = manifest_with(
@@ -265,7 +265,8 @@ fn report_refuses_a_missing_folder_and_keeps_other_pages() {
     assert!(tmp.path().join("report.html").is_file());
 }
 
-/// A copy of a built-in config with the paper's objective and absolute paths.
+/// A copy of a built-in config with the paper's method (its objective, a per-frame grasp) and
+/// absolute paths.
 fn paper_objective_copy(dir: &Path, name: &str) -> PathBuf {
     let src = repo(&format!("scenes/configs/{name}.json"));
     let mut c: serde_json::Value = serde_json::from_slice(&std::fs::read(&src).unwrap()).unwrap();
@@ -274,6 +275,8 @@ fn paper_objective_copy(dir: &Path, name: &str) -> PathBuf {
         c[key] = src.parent().unwrap().join(rel).display().to_string().into();
     }
     c["params"]["objective"] = "paper".into();
+    // The paper's method: each frame keeps its own IK solution (the default holds one grasp).
+    c["params"]["grasp"] = "per_frame".into();
     let path = dir.join(format!("{name}_paper.json"));
     std::fs::write(&path, serde_json::to_vec_pretty(&c).unwrap()).unwrap();
     path
@@ -283,15 +286,13 @@ fn paper_objective_copy(dir: &Path, name: &str) -> PathBuf {
 fn warp_ends_with_the_verdict_and_its_first_reason() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("w");
-    let config = repo("scenes/configs/cube_messy2.json");
+    let config = paper_objective_copy(tmp.path(), "cube_messy2");
     let o = dexwarp(&[
         "warp",
         "--config",
         config.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
-        "--objective",
-        "paper",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
