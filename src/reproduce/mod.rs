@@ -28,8 +28,8 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::hand::ik::Solver;
-use crate::model::Objective;
 use crate::model::report::Report;
+use crate::model::{GraspMode, Objective};
 use crate::output::progress;
 use crate::pipeline::{self, HandMethod, Inputs, Options, PhysicsOptions};
 use crate::{Error, Limits, Result};
@@ -92,7 +92,8 @@ impl Variant {
             && self.objective == Objective::NonPenetrating
     }
 
-    /// Contact IK with LM on the paper's objective as printed: `paper_lm_{t}mm`.
+    /// Contact IK with LM as the paper has it, its objective as printed and a per-frame grasp:
+    /// `paper_lm_{t}mm`.
     fn paper(threshold_mm: f64) -> Variant {
         Variant {
             name: format!("paper_lm_{threshold_mm}mm"),
@@ -288,6 +289,10 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
     let dir = options.out.join("runs").join(&name).join(&variant.name);
     let result = (|| -> Result<Report> {
         let mut inputs = Inputs::load(config, None, &options.limits)?;
+        if variant.objective == Objective::Paper {
+            // The paper's method: its objective, and each frame keeps its IK solution.
+            inputs.config.params.grasp = GraspMode::PerFrame;
+        }
         let clean = variant.corruption.map(|(kind, fraction)| {
             let clean = inputs.demo.clone();
             inputs.demo = corrupt(&clean, kind, fraction, ROBUSTNESS_SEED);
