@@ -81,8 +81,9 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         assert!(md.contains("box_lift"), "{t}: {md}");
         assert!(out.join(format!("tables/{t}.csv")).is_file());
     }
-    // The compared runs (contact IK at 3.5 mm and the baseline) carry their robustness
-    // margin, and the comparison table says it for each passing hand.
+    // The compared runs (contact IK at 3.5 mm and the baseline), and only they, carry their
+    // robustness margin (how the table words it: `tables::tests`); a run without a nominal
+    // pass has none to name.
     let mut margins = 0;
     for r in &rep.runs {
         let margin = r
@@ -95,22 +96,8 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         assert_eq!(margin.is_some(), compared, "{}", r.variant.name);
         if let Some(m) = margin {
             margins += 1;
-            let cell = match (m["robust"] == true, m["weakest"].as_array()) {
-                (true, _) => "robust".to_string(),
-                (false, Some(w)) => format!(
-                    "μ {:.2} at {:.1}x",
-                    w[0].as_f64().unwrap(),
-                    w[1].as_f64().unwrap()
-                ),
-                // No margin without a nominal pass.
-                (false, None) => {
-                    assert_eq!(r.report.physics.as_ref().unwrap().verdict, "fail");
-                    continue;
-                }
-            };
-            let md = std::fs::read_to_string(out.join("tables/baseline_comparison.md")).unwrap();
-            let row = md.lines().find(|l| l.starts_with("| box_lift")).unwrap();
-            assert!(row.contains(&cell), "{cell} not in {row}");
+            let passed = r.report.physics.as_ref().unwrap().verdict == "pass";
+            assert_eq!(m["weakest"].is_array(), passed, "{}: {m}", r.variant.name);
         }
     }
     assert_eq!(margins, 2);
