@@ -239,10 +239,10 @@ pub fn release_held(
     let dof = hand.dof;
     let mut changed = 0;
     for t in a..=b {
-        let w = 1.0 - near[t - a] as f64 / (frames as f64 + 1.0);
         if near[t - a] > frames {
             continue;
         }
+        let w = 1.0 - near[t - a] as f64 / (frames as f64 + 1.0);
         let held = objects[t].inverse() * hand.wrists[t];
         let own = objects[t].inverse() * per_frame.wrists[t];
         let rel = Isometry3::from_parts(

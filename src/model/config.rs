@@ -125,7 +125,7 @@ impl Default for WarpParams {
             retime: RetimeMode::Chord,
             continuous_speed: true,
             hand_radius_m: DEFAULT_HAND_RADIUS_M,
-            grasp: GraspMode::Held,
+            grasp: GraspMode::default(),
             hand_clearance_m: DEFAULT_HAND_CLEARANCE_M,
             end_t_new: None,
             physics: None,

@@ -101,13 +101,3 @@ pub enum GraspMode {
     #[default]
     Held,
 }
-
-impl GraspMode {
-    /// The name used in configs and reports.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            GraspMode::PerFrame => "per_frame",
-            GraspMode::Held => "held",
-        }
-    }
-}

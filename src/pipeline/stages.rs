@@ -177,13 +177,16 @@ pub(super) fn contact_ik(
     if config.params.grasp == GraspMode::Held {
         let path = object.path();
         let objects: Vec<_> = (0..path.len()).map(|t| path.pose(t)).collect();
-        let per_frame = hand.clone();
+        // Without barriers nothing can make the per-frame solution come back.
+        let per_frame = (!shapes.is_empty()).then(|| hand.clone());
         smooth::hold_grasp(&mut hand, &objects, range.clone(), |q| {
             robot.clamp(q);
         })
         .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
-        let keep = nearer_barriers(robot, shapes, &hand, &per_frame, range.clone());
-        smooth::release_held(&mut hand, &per_frame, &objects, range.clone(), &keep, ease);
+        if let Some(per_frame) = per_frame {
+            let keep = nearer_barriers(robot, shapes, &hand, &per_frame, range.clone());
+            smooth::release_held(&mut hand, &per_frame, &objects, range.clone(), &keep, ease);
+        }
     }
     // Stage 5c: no jump between the IK hand and the rigid transfer at the segment's ends:
     // the difference fades out over `EASE_S` outside it.
