@@ -88,10 +88,11 @@ pub type Metric = fn(&Row) -> Option<f64>;
 
 /// The stable key of a physics verdict sentence (`physics::verdict` wording).
 pub fn physics_key(sentence: &str) -> String {
-    const KEYS: [(&str, &str); 11] = [
+    const KEYS: [(&str, &str); 12] = [
         ("the simulation diverged", "diverged"),
         ("object dropped", "dropped"),
         ("object slipped", "slipped"),
+        ("object pushed after the release", "pushed_after_release"),
         ("mean object position error", "mean_position_error"),
         ("object position error", "position_error"),
         ("mean object rotation error", "rotation_error"),
@@ -481,6 +482,12 @@ mod tests {
         assert_eq!(
             physics_key("object position error 12.0 mm at frame 3 > 10.0 mm"),
             "physics:position_error"
+        );
+        assert_eq!(
+            physics_key(
+                "object pushed after the release: position error 166.7 mm at frame 679 > 50.0 mm (7.8 mm at the last contact frame 534); the hand touches it up to frame 630"
+            ),
+            "physics:pushed_after_release"
         );
         assert_eq!(
             physics_key("grip lost 3 times"),

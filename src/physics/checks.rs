@@ -17,7 +17,10 @@
 //!   [`Params::stability_steps`] steps of [`Params::stability_dt_s`].
 //! - **Release**: after the last contact frame, the object must end within
 //!   [`Params::support_gap_m`] of a support and move less than [`Params::rest_motion_m`] over
-//!   the last [`Params::rest_window_s`].
+//!   the last [`Params::rest_window_s`]. When the object's largest position error comes
+//!   after the release and the hand touched it in between, the position error's reason says
+//!   the hand pushed the released object ([`find_push`]): the carry held, the retreat did not
+//!   clear the object.
 
 use nalgebra::{Isometry3, Vector3};
 use rapier3d_f64::parry::bounding_volume::{Aabb, BoundingVolume};
@@ -26,7 +29,7 @@ use rapier3d_f64::parry::query;
 use rapier3d_f64::parry::shape::Shape;
 
 use super::params::Params;
-use super::report::{Drop, DropCause, Grip, Penetration, Stability, Tracking};
+use super::report::{Drop, DropCause, Grip, Penetration, Pushed, Stability, Tracking};
 use super::world::{GripSample, ReplayWorld};
 use crate::geometry::hull::ObjectShape;
 use crate::geometry::shape::CollisionShape;
@@ -98,6 +101,35 @@ pub fn find_drop(
         },
         position_error_mm: position_error[frame] * 1e3,
         contact_lost_frame: lost,
+    })
+}
+
+/// The hand pushing the object after the release ([`Pushed`]): the largest position error
+/// after the last contact frame `released`, when it is above [`Params::max_position_error_m`],
+/// more than [`Params::drop_error_m`] above the error at `released`, and the hand touches the
+/// object at some frame after `released` up to it.
+pub fn find_push(
+    released: usize,
+    position_error: &[f64],
+    touching: &[bool],
+    params: &Params,
+) -> Option<Pushed> {
+    let at_release = *position_error.get(released)?;
+    let (frame, error) = (released + 1..position_error.len())
+        .map(|f| (f, position_error[f]))
+        .fold(None, |best: Option<(usize, f64)>, (f, e)| match best {
+            Some((_, b)) if b >= e => best,
+            _ => Some((f, e)),
+        })?;
+    if error <= params.max_position_error_m || error - at_release <= params.drop_error_m {
+        return None;
+    }
+    let last_touch_frame = (released + 1..=frame).rev().find(|&f| touching[f])?;
+    Some(Pushed {
+        frame,
+        position_error_mm: error * 1e3,
+        release_error_mm: at_release * 1e3,
+        last_touch_frame,
     })
 }
 
@@ -363,5 +395,47 @@ pub fn grip(segment: &[GripSample], weight_n: f64) -> Grip {
         weight_n,
         at_overlap_share: share(segment.iter().map(|g| g.at_overlap_n).sum()),
         from_overlap_share: share(segment.iter().map(|g| g.from_overlap_n).sum()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Errors [m] of a replay released at frame 4 on its plan (5 mm off), then the hand
+    /// touching it at frames 5-6 and the error growing to `end` by frame 8.
+    fn pushed_replay(end: f64) -> (Vec<f64>, Vec<bool>) {
+        let err = vec![0.0, 0.005, 0.005, 0.005, 0.005, 0.01, 0.03, end * 0.8, end];
+        let touching = vec![false, true, true, true, true, true, true, false, false];
+        (err, touching)
+    }
+
+    #[test]
+    fn a_push_after_the_release_is_found_with_its_frames() {
+        let params = Params::default();
+        let (err, touching) = pushed_replay(0.12);
+        let p = find_push(4, &err, &touching, &params).expect("pushed 115 mm while touched");
+        assert_eq!((p.frame, p.last_touch_frame), (8, 6));
+        assert!((p.position_error_mm - 120.0).abs() < 1e-9);
+        assert!((p.release_error_mm - 5.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn no_push_without_a_touch_or_below_the_limits() {
+        let params = Params::default();
+        // Within the position limit (50 mm).
+        let (err, touching) = pushed_replay(0.045);
+        assert_eq!(find_push(4, &err, &touching, &params), None);
+        // The hand never touches it after the release: it moved by itself.
+        let (err, mut touching) = pushed_replay(0.12);
+        touching[5..].iter_mut().for_each(|t| *t = false);
+        assert_eq!(find_push(4, &err, &touching, &params), None);
+        // Already off its plan at the release, and it grew by less than the drop limit
+        // (30 mm): the push is not what broke the limit.
+        let (mut err, touching) = pushed_replay(0.12);
+        err[4] = 0.1;
+        assert_eq!(find_push(4, &err, &touching, &params), None);
+        // Released at the last frame: nothing after it.
+        assert_eq!(find_push(8, &err, &touching, &params), None);
     }
 }

@@ -296,7 +296,7 @@ pub use margin::{Margin, margin};
 pub use params::{Actuation, HandModel, Params};
 pub use report::{
     Carry, Drop, DropCause, GraspHold, Grip, Penetration, Penetrations, PerFrame, PhysicsReport,
-    Release, ReplayInfo, Stability, Timing, Tracking,
+    Pushed, Release, ReplayInfo, Stability, Timing, Tracking,
 };
 
 use crate::geometry::Mesh;
@@ -651,7 +651,9 @@ fn check_replay(
     let stability = segment.map(|s| stability(robot, demo, object, s, params));
     let stability_s = t_stab.elapsed().as_secs_f64();
 
-    let release = release(demo, object, supports, trace, segment, params);
+    let release = release(
+        demo, object, supports, trace, segment, &pos_err, &touching, params,
+    );
 
     let replayed = trace.grip.len();
     let grip = segment.filter(|s| s.start < replayed).map(|s| {
@@ -712,6 +714,8 @@ fn release(
     supports: &[(String, CollisionShape)],
     trace: &replay::Trace,
     segment: Option<ContactSegment>,
+    position_error: &[f64],
+    touching: &[bool],
     params: &Params,
 ) -> Option<Release> {
     if trace.stopped_at.is_some() {
@@ -737,6 +741,7 @@ fn release(
             support: nearest.map(|(n, _)| n),
             final_motion_mm: motion * 1e3,
             final_speed_m_s: trace.speed_m_s[last],
+            pushed: checks::find_push(s.end, position_error, touching, params),
         }
     })
 }

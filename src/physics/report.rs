@@ -141,6 +141,26 @@ pub struct Release {
     pub final_motion_mm: f64,
     /// Object speed at the last frame [m/s].
     pub final_speed_m_s: f64,
+    /// The hand moved the released object off its plan (see [`Pushed`]); `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pushed: Option<Pushed>,
+}
+
+/// A released object the hand moved: after the last contact frame the object's position
+/// error grew by more than the drop limit to above the position limit, and the hand touched
+/// it in between (typically the retreat sweeping a finger through a handle the object
+/// turned in the grasp). The carry itself held: the trajectory fails on what the hand does
+/// after letting go.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Pushed {
+    /// The frame of the largest position error after the release.
+    pub frame: usize,
+    /// The position error there [mm].
+    pub position_error_mm: f64,
+    /// The position error at the last contact frame [mm].
+    pub release_error_mm: f64,
+    /// The last frame up to `frame` at which the hand touches the object.
+    pub last_touch_frame: usize,
 }
 
 /// How the hand held the simulated object: its normal contact forces at the frame times of

@@ -1,7 +1,7 @@
 //! The verdict: every failed check as a sentence naming the frame and the value.
 
 use super::params::Params;
-use super::report::{Carry, DropCause, Penetration, PhysicsReport, Stability, Tracking};
+use super::report::{Carry, DropCause, Penetration, PhysicsReport, Pushed, Stability, Tracking};
 
 /// The reasons `report` fails under `params`, in a fixed order: divergence, drop, tracking,
 /// penetration (hand-object, hand-barrier, object-barrier), stability, release.
@@ -29,7 +29,11 @@ pub(crate) fn reasons(report: &PhysicsReport, params: &Params) -> Vec<String> {
             ),
         });
     }
-    out.extend(tracking(&report.tracking, params));
+    let pushed = report
+        .release
+        .as_ref()
+        .and_then(|r| r.pushed.as_ref().map(|p| (r.frame, p)));
+    out.extend(tracking(&report.tracking, pushed, params));
     let p = &report.penetration;
     penetration(&mut out, "hand-object", &p.hand_object);
     penetration(&mut out, "hand-barrier", &p.hand_barrier);
@@ -76,8 +80,10 @@ fn penetration(out: &mut Vec<String>, what: &str, p: &Penetration) {
     }
 }
 
-/// The tracking limits `t` breaks, as sentences.
-fn tracking(t: &Tracking, params: &Params) -> Vec<String> {
+/// The tracking limits `t` breaks, as sentences. When the largest position error is the
+/// hand pushing the released object (`pushed`: the last contact frame and the push), its
+/// sentence says so.
+fn tracking(t: &Tracking, pushed: Option<(usize, &Pushed)>, params: &Params) -> Vec<String> {
     let mut out = Vec::new();
     if t.mean_position_error_mm > params.max_mean_position_error_m * 1e3 {
         out.push(format!(
@@ -86,7 +92,19 @@ fn tracking(t: &Tracking, params: &Params) -> Vec<String> {
             params.max_mean_position_error_m * 1e3
         ));
     }
-    if t.max_position_error_mm > params.max_position_error_m * 1e3 {
+    if let Some((released, p)) = pushed
+        && t.max_position_error_frame == p.frame
+        && t.max_position_error_mm > params.max_position_error_m * 1e3
+    {
+        out.push(format!(
+            "object pushed after the release: position error {:.1} mm at frame {} > {:.1} mm ({:.1} mm at the last contact frame {released}); the hand touches it up to frame {}",
+            t.max_position_error_mm,
+            t.max_position_error_frame,
+            params.max_position_error_m * 1e3,
+            p.release_error_mm,
+            p.last_touch_frame
+        ));
+    } else if t.max_position_error_mm > params.max_position_error_m * 1e3 {
         out.push(format!(
             "object position error {:.1} mm at frame {} > {:.1} mm",
             t.max_position_error_mm,
@@ -131,9 +149,54 @@ pub(crate) fn hold(stability: &Stability, carry: &Carry, params: &Params) -> Vec
         ));
     }
     out.extend(
-        tracking(t, params)
+        tracking(t, None, params)
             .into_iter()
             .map(|r| format!("carried, {r}")),
     );
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::Release;
+
+    #[test]
+    fn the_position_error_of_a_push_after_the_release_says_so() {
+        let params = Params::default();
+        let mut report = PhysicsReport {
+            tracking: Tracking {
+                mean_position_error_mm: 27.5,
+                max_position_error_mm: 166.7,
+                max_position_error_frame: 679,
+                ..Tracking::default()
+            },
+            release: Some(Release {
+                frame: 534,
+                rests_on_support: true,
+                pushed: Some(Pushed {
+                    frame: 679,
+                    position_error_mm: 166.7,
+                    release_error_mm: 7.8,
+                    last_touch_frame: 630,
+                }),
+                ..Release::default()
+            }),
+            ..PhysicsReport::default()
+        };
+        let r = reasons(&report, &params);
+        assert_eq!(r.len(), 2, "{r:?}");
+        assert_eq!(
+            r[1],
+            "object pushed after the release: position error 166.7 mm at frame 679 > 50.0 mm (7.8 mm at the last contact frame 534); the hand touches it up to frame 630"
+        );
+        // The largest error elsewhere (in the grasp): the plain sentence, same count.
+        report.tracking.max_position_error_frame = 300;
+        let r = reasons(&report, &params);
+        assert_eq!(r.len(), 2, "{r:?}");
+        assert!(
+            r[1].starts_with("object position error 166.7 mm at frame 300"),
+            "{r:?}"
+        );
+    }
 }
