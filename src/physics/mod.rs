@@ -168,6 +168,17 @@
 //! (`"params": {"physics": {"solver_contact_gap_m": 0.003}}`) when throughput matters more
 //! than comparability with earlier runs.
 //!
+//! Measured again on the code of c688402 (x86-64-v3 build, held grasp): on the 17 built-in
+//! configs x 2 hands at 3.5 mm the cut keeps every robust verdict (fryingpan_change_tops
+//! flips both ways, neither hand robust there), mean physics per trajectory 0.342 -> 0.272 s
+//! (1.26x, contact IK, `scripts/physics_time.py --runs 3`). But on sampled variations it is
+//! not neutral: `augment --count 200 --seed 1 --jobs 2` keeps 82 teapot samples without it and
+//! 51 with it (mug: 200 and 200), at 1.28x (teapot) and 1.39x (mug) the samples per hour. A
+//! cut of 1 mm instead of 3 flips teapot_pour_empty's robust contact-IK pass to a slip, and
+//! Rapier's prediction distance at 6 or 10 mm (default 20) flips teapot_pour_cups' robust
+//! baseline pass. The robustness margin does not certify a change to the solver's inputs:
+//! it replays one order of the constraints.
+//!
 //! A replay near the edge of holding is chaotic: the last-bit differences of a quaternion
 //! renormalization turn fryingpan_onto_shelf `--hand baseline` from a pass into a slip at
 //! frame 258. [`margin`] replays a passing trajectory under lower friction and higher mass
