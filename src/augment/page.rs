@@ -166,6 +166,17 @@ fn baseline_section(b: &BaselineStats) -> String {
         ));
     }
     h.push_str("</table>\n");
+    let (ik, base) = (
+        b.failed_by_cause.contact_ik.rows(),
+        b.failed_by_cause.baseline.rows(),
+    );
+    h.push_str("<table><tr><th>failed, by cause (same samples; one cause each, the first that applies)</th><th>contact IK</th><th>baseline</th></tr>\n");
+    for ((what, n_ik), (_, n_base)) in ik.iter().zip(&base) {
+        h.push_str(&format!(
+            "<tr><td>{what}</td><td>{n_ik}</td><td>{n_base}</td></tr>\n"
+        ));
+    }
+    h.push_str("</table>\n");
     let bars: Vec<(String, u64)> = b
         .failed_by_reason
         .iter()

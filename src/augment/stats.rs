@@ -315,6 +315,101 @@ pub struct BaselineStats {
     /// How far each hand slides on the object over the contact segment [mm].
     #[serde(default)]
     pub grasp_slide_mm: HandPair,
+    /// Each hand's failures over the same samples, by [`Cause`].
+    #[serde(default)]
+    pub failed_by_cause: CausePair,
+}
+
+/// Why a sample failed, in one word: the first of these its reason keys name. Unlike the
+/// reason keys (a sample counted under each of its reasons), every failure has exactly one
+/// cause, so a hand's causes add up to its failures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Cause {
+    /// The object lost while the hand carries it (`physics:slipped`, `physics:dropped`):
+    /// what the paper expects of rigid transfer under non-uniform retiming.
+    LostInGrasp,
+    /// The carry held; the hand moved the object after letting go
+    /// (`physics:pushed_after_release`).
+    PushedAfterRelease,
+    /// The object off its plan by the tracking limits, neither lost in the grasp nor pushed
+    /// (`physics:mean_position_error`, `physics:position_error`, `physics:rotation_error`).
+    Tracking,
+    /// The hand or the object in the object or a barrier (`physics:*_penetration`).
+    Penetration,
+    /// Physics passed (or did not run) and IK frames did not converge (`ik:*`).
+    IkNotConverged,
+    /// Anything else (`physics:unstable`, `physics:released_unsupported`, `narrow_gap`,
+    /// `error`, ...).
+    Other,
+}
+
+impl Cause {
+    /// The cause of a failure with the reason keys `keys` (`;`-separated, as in
+    /// `samples.csv`).
+    pub fn of(keys: &str) -> Cause {
+        let keys: Vec<&str> = keys.split(';').filter(|k| !k.is_empty()).collect();
+        let any = |names: &[&str]| keys.iter().any(|k| names.contains(k));
+        if any(&["physics:slipped", "physics:dropped"]) {
+            Cause::LostInGrasp
+        } else if any(&["physics:pushed_after_release"]) {
+            Cause::PushedAfterRelease
+        } else if any(&[
+            "physics:mean_position_error",
+            "physics:position_error",
+            "physics:rotation_error",
+        ]) {
+            Cause::Tracking
+        } else if keys.iter().any(|k| k.ends_with("_penetration")) {
+            Cause::Penetration
+        } else if keys.iter().any(|k| k.starts_with("ik:")) {
+            Cause::IkNotConverged
+        } else {
+            Cause::Other
+        }
+    }
+}
+
+/// Failures by [`Cause`] (`stats.json` `baseline.failed_by_cause.<hand>`).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CauseCounts {
+    pub lost_in_grasp: u64,
+    pub pushed_after_release: u64,
+    pub tracking: u64,
+    pub penetration: u64,
+    pub ik_not_converged: u64,
+    pub other: u64,
+}
+
+impl CauseCounts {
+    fn add(&mut self, cause: Cause) {
+        *match cause {
+            Cause::LostInGrasp => &mut self.lost_in_grasp,
+            Cause::PushedAfterRelease => &mut self.pushed_after_release,
+            Cause::Tracking => &mut self.tracking,
+            Cause::Penetration => &mut self.penetration,
+            Cause::IkNotConverged => &mut self.ik_not_converged,
+            Cause::Other => &mut self.other,
+        } += 1;
+    }
+
+    /// `(cause, count)` in the order of [`Cause`], for tables.
+    pub fn rows(&self) -> [(&'static str, u64); 6] {
+        [
+            ("lost in the grasp (slipped or dropped)", self.lost_in_grasp),
+            ("pushed after the release", self.pushed_after_release),
+            ("off its plan (tracking limits)", self.tracking),
+            ("penetration", self.penetration),
+            ("IK not converged", self.ik_not_converged),
+            ("other", self.other),
+        ]
+    }
+}
+
+/// Failures by cause of each hand over the same samples.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CausePair {
+    pub contact_ik: CauseCounts,
+    pub baseline: CauseCounts,
 }
 
 /// The paired outcome of contact IK and the baseline on the same samples.
@@ -356,6 +451,12 @@ impl BaselineStats {
                 for k in r.baseline_reasons.split(';').filter(|k| !k.is_empty()) {
                     *b.failed_by_reason.entry(k.to_string()).or_default() += 1;
                 }
+                b.failed_by_cause
+                    .baseline
+                    .add(Cause::of(&r.baseline_reasons));
+            }
+            if !contact {
+                b.failed_by_cause.contact_ik.add(Cause::of(&r.reasons));
             }
             let p = &mut b.paired;
             *match (contact, base) {
@@ -494,6 +595,30 @@ mod tests {
             "physics:grip_lost",
             "unknown sentences keep their leading words"
         );
+    }
+
+    #[test]
+    fn every_failure_has_one_cause_in_order() {
+        assert_eq!(
+            Cause::of("physics:mean_position_error;physics:slipped;ik:not_converged"),
+            Cause::LostInGrasp
+        );
+        assert_eq!(
+            Cause::of("physics:mean_position_error;physics:pushed_after_release"),
+            Cause::PushedAfterRelease
+        );
+        assert_eq!(
+            Cause::of("physics:rotation_error;physics:hand_object_penetration"),
+            Cause::Tracking
+        );
+        assert_eq!(
+            Cause::of("physics:hand_barrier_penetration;ik:not_converged"),
+            Cause::Penetration
+        );
+        assert_eq!(Cause::of("ik:not_converged"), Cause::IkNotConverged);
+        assert_eq!(Cause::of("physics:unstable"), Cause::Other);
+        assert_eq!(Cause::of("narrow_gap"), Cause::Other);
+        assert_eq!(Cause::of(""), Cause::Other);
     }
 
     #[test]

@@ -564,6 +564,16 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
         p["both"].as_u64().unwrap() + p["only_baseline"].as_u64().unwrap(),
         b["passed"].as_u64().unwrap()
     );
+    // One cause per failure: each hand's causes add up to its failures on these samples.
+    for (hand, failed) in [
+        ("contact_ik", ran - s["passed"].as_u64().unwrap()),
+        ("baseline", b["failed"].as_u64().unwrap()),
+    ] {
+        let causes = b["failed_by_cause"][hand].as_object().expect("causes");
+        assert_eq!(causes.len(), 6, "{causes:?}");
+        let sum: u64 = causes.values().map(|v| v.as_u64().unwrap()).sum();
+        assert_eq!(sum, failed, "{hand}: {causes:?}");
+    }
 
     let mut rows = csv::Reader::from_path(out.join("samples.csv")).unwrap();
     let headers = rows.headers().unwrap().clone();
@@ -623,6 +633,7 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
     );
     let page = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(page.contains("Contact IK against the SE(3) baseline"));
+    assert!(page.contains("failed, by cause"));
 
     // A rerun skips everything and writes the same figures.
     let before = strip_timing(&out.join("stats.json"));
