@@ -323,7 +323,7 @@ pub struct BaselineStats {
 /// Why a sample failed, in one word: the first of these its reason keys name. Unlike the
 /// reason keys (a sample counted under each of its reasons), every failure has exactly one
 /// cause, so a hand's causes add up to its failures.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Cause {
     /// The object lost while the hand carries it (`physics:slipped`, `physics:dropped`):
     /// what the paper expects of rigid transfer under non-uniform retiming.
