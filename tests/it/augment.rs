@@ -542,7 +542,9 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
     // With the comparison, the finished samples run again.
     let said = run(args(true));
     assert!(
-        said.contains("2 run now") && said.contains("paired: both"),
+        said.contains("2 run now")
+            && said.contains("paired: both")
+            && said.contains("lost in the grasp: contact IK"),
         "{said}"
     );
     let s = stats(&out);

@@ -107,6 +107,14 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
             p.only_baseline,
             p.neither
         );
+        let c = &b.failed_by_cause;
+        eprintln!(
+            "lost in the grasp: contact IK {}, baseline {}; pushed after the release: {}, {} (stats.json baseline.failed_by_cause has every cause)",
+            c.contact_ik.lost_in_grasp,
+            c.baseline.lost_in_grasp,
+            c.contact_ik.pushed_after_release,
+            c.baseline.pushed_after_release
+        );
     }
     Ok(())
 }
