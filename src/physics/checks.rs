@@ -104,10 +104,15 @@ pub fn find_drop(
     })
 }
 
+/// How far [m] the released object must have moved off its plan (its position error grown
+/// since the release) at a frame where the hand touches it for the hand to count as pushing
+/// it: fingers still brushing it as they open, before it moves, do not count.
+pub const PUSHED_WHILE_TOUCHED_M: f64 = 0.01;
+
 /// The hand pushing the object after the release ([`Pushed`]): the largest position error
-/// after the last contact frame `released`, when it is above [`Params::max_position_error_m`],
-/// more than [`Params::drop_error_m`] above the error at `released`, and the hand touches the
-/// object at some frame after `released` up to it.
+/// after the last contact frame `released`, when it is above [`Params::max_position_error_m`]
+/// and more than [`Params::drop_error_m`] above the error at `released`, and the hand touches
+/// the object at a frame up to it where the error has grown by [`PUSHED_WHILE_TOUCHED_M`].
 pub fn find_push(
     released: usize,
     position_error: &[f64],
@@ -124,7 +129,9 @@ pub fn find_push(
     if error <= params.max_position_error_m || error - at_release <= params.drop_error_m {
         return None;
     }
-    let last_touch_frame = (released + 1..=frame).rev().find(|&f| touching[f])?;
+    let last_touch_frame = (released + 1..=frame)
+        .rev()
+        .find(|&f| touching[f] && position_error[f] - at_release >= PUSHED_WHILE_TOUCHED_M)?;
     Some(Pushed {
         frame,
         position_error_mm: error * 1e3,
@@ -429,6 +436,9 @@ mod tests {
         // The hand never touches it after the release: it moved by itself.
         let (err, mut touching) = pushed_replay(0.12);
         touching[5..].iter_mut().for_each(|t| *t = false);
+        assert_eq!(find_push(4, &err, &touching, &params), None);
+        // The fingers brush it as they open (5 mm moved), then it moves by itself.
+        touching[5] = true;
         assert_eq!(find_push(4, &err, &touching, &params), None);
         // Already off its plan at the release, and it grew by less than the drop limit
         // (30 mm): the push is not what broke the limit.

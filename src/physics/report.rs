@@ -148,9 +148,9 @@ pub struct Release {
 
 /// A released object the hand moved: after the last contact frame the object's position
 /// error grew by more than the drop limit to above the position limit, and the hand touched
-/// it in between (typically the retreat sweeping a finger through a handle the object
-/// turned in the grasp). The carry itself held: the trajectory fails on what the hand does
-/// after letting go.
+/// it in between once it had moved 10 mm from where it was let go (typically the retreat
+/// sweeping a finger through a handle the object turned in the grasp). The carry itself
+/// held: the trajectory fails on what the hand does after letting go.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Pushed {
     /// The frame of the largest position error after the release.
@@ -159,7 +159,7 @@ pub struct Pushed {
     pub position_error_mm: f64,
     /// The position error at the last contact frame [mm].
     pub release_error_mm: f64,
-    /// The last frame up to `frame` at which the hand touches the object.
+    /// The last frame up to `frame` at which the hand touches the moved object.
     pub last_touch_frame: usize,
 }
 
