@@ -756,3 +756,57 @@ fn committed_demos_verdicts() {
         "base demonstrations failing physics: {failed:#?}"
     );
 }
+
+/// teapot_pour_cup_long at 5 mm carries the pot and releases it on the counter within 8 mm
+/// of its plan; the hook grasp's retreat then drags it 16 cm. The report names the push, with
+/// frames that bracket it, instead of a bare position error.
+#[test]
+fn a_retreat_that_drags_the_released_teapot_is_reported_as_a_push() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = crate::fixtures::repo("scenes/configs/teapot_pour_cup_long.json");
+    let out = dir.path().join("out");
+    let o = crate::fixtures::dexwarp(&[
+        "warp",
+        "--config",
+        config.to_str().unwrap(),
+        "--threshold-mm",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let p = &report["physics"];
+    assert_eq!(p["verdict"], "fail");
+    let release = &p["release"];
+    assert_eq!(release["rests_on_support"], true, "{release}");
+    let pushed = &release["pushed"];
+    let f = |v: &serde_json::Value| v.as_f64().unwrap();
+    let (released, frame, touch) = (
+        f(&release["frame"]),
+        f(&pushed["frame"]),
+        f(&pushed["last_touch_frame"]),
+    );
+    assert!(released < touch && touch <= frame, "{release}");
+    assert!(f(&pushed["release_error_mm"]) < 30.0, "{pushed}");
+    assert!(f(&pushed["position_error_mm"]) > 100.0, "{pushed}");
+    let reasons: Vec<&str> = p["reasons"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_str().unwrap())
+        .collect();
+    assert!(
+        reasons
+            .iter()
+            .any(|r| r.starts_with("object pushed after the release")),
+        "{reasons:?}"
+    );
+    assert!(
+        !reasons
+            .iter()
+            .any(|r| r.starts_with("object position error")),
+        "{reasons:?}"
+    );
+}
