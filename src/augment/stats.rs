@@ -336,10 +336,10 @@ pub enum Cause {
     Tracking,
     /// The hand or the object in the object or a barrier (`physics:*_penetration`).
     Penetration,
-    /// Physics passed (or did not run) and IK frames did not converge (`ik:*`).
+    /// Physics passed (or did not run) and too few IK frames converged (`ik:not_converged`).
     IkNotConverged,
     /// Anything else (`physics:unstable`, `physics:released_unsupported`, `narrow_gap`,
-    /// `error`, ...).
+    /// `ik:d_c_above_max`, `error`, ...).
     Other,
 }
 
@@ -361,7 +361,7 @@ impl Cause {
             Cause::Tracking
         } else if keys.iter().any(|k| k.ends_with("_penetration")) {
             Cause::Penetration
-        } else if keys.iter().any(|k| k.starts_with("ik:")) {
+        } else if any(&["ik:not_converged"]) {
             Cause::IkNotConverged
         } else {
             Cause::Other
@@ -618,6 +618,7 @@ mod tests {
         assert_eq!(Cause::of("ik:not_converged"), Cause::IkNotConverged);
         assert_eq!(Cause::of("physics:unstable"), Cause::Other);
         assert_eq!(Cause::of("narrow_gap"), Cause::Other);
+        assert_eq!(Cause::of("ik:d_c_above_max"), Cause::Other);
         assert_eq!(Cause::of(""), Cause::Other);
     }
 
