@@ -599,27 +599,31 @@ mod tests {
 
     #[test]
     fn every_failure_has_one_cause_in_order() {
-        assert_eq!(
-            Cause::of("physics:mean_position_error;physics:slipped;ik:not_converged"),
-            Cause::LostInGrasp
-        );
-        assert_eq!(
-            Cause::of("physics:mean_position_error;physics:pushed_after_release"),
-            Cause::PushedAfterRelease
-        );
-        assert_eq!(
-            Cause::of("physics:rotation_error;physics:hand_object_penetration"),
-            Cause::Tracking
-        );
-        assert_eq!(
-            Cause::of("physics:hand_barrier_penetration;ik:not_converged"),
-            Cause::Penetration
-        );
-        assert_eq!(Cause::of("ik:not_converged"), Cause::IkNotConverged);
-        assert_eq!(Cause::of("physics:unstable"), Cause::Other);
-        assert_eq!(Cause::of("narrow_gap"), Cause::Other);
-        assert_eq!(Cause::of("ik:d_c_above_max"), Cause::Other);
-        assert_eq!(Cause::of(""), Cause::Other);
+        for (keys, cause) in [
+            (
+                "physics:mean_position_error;physics:slipped;ik:not_converged",
+                Cause::LostInGrasp,
+            ),
+            (
+                "physics:mean_position_error;physics:pushed_after_release",
+                Cause::PushedAfterRelease,
+            ),
+            (
+                "physics:rotation_error;physics:hand_object_penetration",
+                Cause::Tracking,
+            ),
+            (
+                "physics:hand_barrier_penetration;ik:not_converged",
+                Cause::Penetration,
+            ),
+            ("ik:not_converged", Cause::IkNotConverged),
+            ("physics:unstable", Cause::Other),
+            ("narrow_gap", Cause::Other),
+            ("ik:d_c_above_max", Cause::Other),
+            ("", Cause::Other),
+        ] {
+            assert_eq!(Cause::of(keys), cause, "{keys}");
+        }
     }
 
     #[test]

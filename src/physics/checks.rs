@@ -51,11 +51,6 @@ pub fn tracking_errors(
         rot.push(angle_between(&s.rotation, &f.object.rotation));
     }
     let n = pos.len().max(1) as f64;
-    let argmax = |v: &[f64]| {
-        v.iter()
-            .enumerate()
-            .fold((0, 0.0f64), |b, (i, &x)| if x > b.1 { (i, x) } else { b })
-    };
     let (pf, pm) = argmax(&pos);
     let (rf, rm) = argmax(&rot);
     let tracking = Tracking {
@@ -67,6 +62,14 @@ pub fn tracking_errors(
         max_rotation_error_frame: rf,
     };
     (pos, rot, tracking)
+}
+
+/// The index and value of the first largest of the non-negative values `v`; `(0, 0.0)` when
+/// `v` is empty.
+fn argmax(v: &[f64]) -> (usize, f64) {
+    v.iter()
+        .enumerate()
+        .fold((0, 0.0f64), |b, (i, &x)| if x > b.1 { (i, x) } else { b })
 }
 
 /// The first drop inside `segment` (see the module docs). `window` is how many frames after
@@ -120,12 +123,8 @@ pub fn find_push(
     params: &Params,
 ) -> Option<Pushed> {
     let at_release = *position_error.get(released)?;
-    let (frame, error) = (released + 1..position_error.len())
-        .map(|f| (f, position_error[f]))
-        .fold(None, |best: Option<(usize, f64)>, (f, e)| match best {
-            Some((_, b)) if b >= e => best,
-            _ => Some((f, e)),
-        })?;
+    let (after, error) = argmax(&position_error[released + 1..]);
+    let frame = released + 1 + after;
     if error <= params.max_position_error_m || error - at_release <= params.drop_error_m {
         return None;
     }

@@ -250,9 +250,10 @@
 //! cost frying-pan grasps at the slip limit (see `replay.rs`), so it is not done.
 //!
 //! What made it cheaper without changing an output (same 17 configs, release builds of
-//! 2eee92a and of 42dc45a, before the held grasp became the default, `scripts/physics_time.py
-//! --runs 3`, medians, one run on an idle 2-core machine): the x86-64-v3 build (above), the object's mass properties computed once
-//! per object instead of for every world (replay, stability samples, margin conditions),
+//! 2eee92a and of 42dc45a, before the held grasp became the default,
+//! `scripts/physics_time.py --runs 3`, medians, one run on an idle 2-core machine): the
+//! x86-64-v3 build (above), the object's mass properties computed once per object instead
+//! of for every world (replay, stability samples, margin conditions),
 //! and, for `augment`, the demonstration, robot and mesh loaded once for all samples and
 //! each input file hashed once for the provenance. Physics per trajectory 0.602 s -> 0.422 s
 //! (1.43x; 1.21-1.85x per config; largest 1.139 -> 0.763 s), no verdict changed;

@@ -92,25 +92,19 @@ fn tracking(t: &Tracking, pushed: Option<(usize, &Pushed)>, params: &Params) -> 
             params.max_mean_position_error_m * 1e3
         ));
     }
-    if let Some((released, p)) = pushed
-        && t.max_position_error_frame == p.frame
-        && t.max_position_error_mm > params.max_position_error_m * 1e3
-    {
-        out.push(format!(
-            "object pushed after the release: position error {:.1} mm at frame {} > {:.1} mm ({:.1} mm at the last contact frame {released}); the hand touches it up to frame {}",
+    if t.max_position_error_mm > params.max_position_error_m * 1e3 {
+        let (error, frame, limit) = (
             t.max_position_error_mm,
             t.max_position_error_frame,
             params.max_position_error_m * 1e3,
-            p.release_error_mm,
-            p.last_touch_frame
-        ));
-    } else if t.max_position_error_mm > params.max_position_error_m * 1e3 {
-        out.push(format!(
-            "object position error {:.1} mm at frame {} > {:.1} mm",
-            t.max_position_error_mm,
-            t.max_position_error_frame,
-            params.max_position_error_m * 1e3
-        ));
+        );
+        out.push(match pushed.filter(|(_, p)| p.frame == frame) {
+            Some((released, p)) => format!(
+                "object pushed after the release: position error {error:.1} mm at frame {frame} > {limit:.1} mm ({:.1} mm at the last contact frame {released}); the hand touches it up to frame {}",
+                p.release_error_mm, p.last_touch_frame
+            ),
+            None => format!("object position error {error:.1} mm at frame {frame} > {limit:.1} mm"),
+        });
     }
     if t.mean_rotation_error_deg > params.max_mean_rotation_error_deg {
         out.push(format!(
