@@ -83,8 +83,8 @@ fn warp_replays_exactly_the_file_validate_reads() {
         .flat_map(|c| [(c.clone(), HandMethod::Contact), (c, HandMethod::Baseline)])
         .collect();
     assert!(
-        jobs.len() >= 34,
-        "the 17 built-in configs, two hand methods: {}",
+        jobs.len() >= 38,
+        "the 19 built-in configs, two hand methods: {}",
         jobs.len()
     );
     let bad: Vec<String> = jobs

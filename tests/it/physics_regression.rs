@@ -8,7 +8,9 @@
 //! and every run is compared with them within the tolerances below. They were captured again
 //! when the retiming made the object's speed continuous at the waypoints, which changed the
 //! baseline trajectories themselves (three frying pan baselines pass since: their slips came
-//! from the speed jumps, and on fryingpan_island from a path through the plate).
+//! from the speed jumps, and on fryingpan_island from a path through the plate). New configs
+//! add their cases (the teapot and cube timewarp stress configs: added, every other case the
+//! same).
 //!
 //! The hand-object penetration has its own tolerance field ([`Tolerances::hand_object_mm`]):
 //! its measurement is being replaced, and whoever replaces it re-captures with
@@ -209,8 +211,8 @@ fn physics_figures_match_the_captured_ones() {
         .collect();
     if std::env::var_os("DEXWARP_CAPTURE_PHYSICS").is_some() {
         let captured = Captured {
-            note: "physics figures of the six base demonstrations and the 14 configs' \
-                   --hand baseline outputs (replayed from the written file); see \
+            note: "physics figures of the six base demonstrations and every config's \
+                   --hand baseline output (replayed from the written file); see \
                    tests/it/physics_regression.rs"
                 .into(),
             tolerances: tolerances(),
