@@ -7,8 +7,12 @@
 //!    output time (real-valued, strictly increasing). Two rules:
 //!    * `chord` (docs/METHOD.md, the paper; default): `τ_i` maps uniform time to the chord-length
 //!      parameter of the segment, so the object moves at constant speed along each segment.
-//!      Each step's length is floored at `min_speed_fraction` of the segment's mean step, so
-//!      frames where the object rests still take time and `τ` stays strictly increasing.
+//!      A step's length is that of the object's farthest point, bounded by `|Δp| + r·|Δθ|`
+//!      (`r` the bounding radius of the mesh, `Δθ` the turn): a turn in place (a pour) takes
+//!      the time a move of the same extent would, where the position's chord alone would play
+//!      it within a few output frames. Each step's length is floored at
+//!      `min_speed_fraction` of the segment's mean step, so frames where the object rests
+//!      still take time and `τ` stays strictly increasing.
 //!    * `paper` (the paper's reference code; the default of the built-in configs): `τ_i` is the
 //!      chord-length parameter with no floor, so frames where the object rests get almost no
 //!      output time and the moving part is stretched over the window. Each step's length is
@@ -45,6 +49,7 @@ use serde::{Deserialize, Serialize};
 use super::ObjectPath;
 use super::plan::WarpPlan;
 use crate::math::bspline::BSpline;
+use crate::math::rotation::angle_between;
 use crate::model::RetimeMode;
 
 /// `paper` mode: length added to every step [m], so a resting step still takes a sliver of
@@ -164,11 +169,13 @@ pub struct Output {
 pub struct RetimeFailure(pub String);
 
 /// Runs stage 3. `original` are the input object positions (for the `speed` rule), `warped`
-/// the object path after stages 1 and 2 (all input frames).
+/// the object path after stages 1 and 2 (all input frames), `object_radius` the bounding
+/// radius of the object mesh [m] (for the `chord` rule's turns).
 pub fn run(
     original: &[Vector3<f64>],
     warped: &ObjectPath,
     plan: &WarpPlan,
+    object_radius: f64,
     params: &Params,
 ) -> Result<Output, RetimeFailure> {
     let clock = Instant::now();
@@ -179,11 +186,19 @@ pub fn run(
     for t in &mut tau[c1 + 1..] {
         *t += post_shift as f64;
     }
-    let eases = segment_eases(&warped.positions, plan, params);
+    let extent = Extent {
+        path: warped,
+        radius: if params.mode == RetimeMode::Chord {
+            object_radius.max(0.0)
+        } else {
+            0.0
+        },
+    };
+    let eases = segment_eases(&extent, plan, params);
     let mut weights = Vec::new();
     for (pair, ease) in plan.anchors.windows(2).zip(&eases) {
         let (a, b) = (&pair[0], &pair[1]);
-        segment_weights(original, &warped.positions, a.t, b.t, params, &mut weights);
+        segment_weights(original, &extent, a.t, b.t, params, &mut weights);
         let total: f64 = weights.iter().sum();
         let span = (b.t_new - a.t_new) as f64;
         let mut acc = 0.0;
@@ -405,16 +420,13 @@ impl Ease {
 /// (at most twice the slower one, 0 when either rests); at the contact window's ends it is the
 /// speed of the untouched frames outside (the recording's own, usually at rest). A segment that
 /// does not move keeps constant speed.
-fn segment_eases(
-    positions: &[Vector3<f64>],
-    plan: &WarpPlan,
-    params: &Params,
-) -> Vec<Option<Ease>> {
+fn segment_eases(extent: &Extent, plan: &WarpPlan, params: &Params) -> Vec<Option<Ease>> {
     let segments = plan.anchors.len().saturating_sub(1);
     if !params.continuous_speed || params.mode == RetimeMode::Speed {
         return vec![None; segments];
     }
-    let step = |f: usize| (positions[f + 1] - positions[f]).norm();
+    let positions = &extent.path.positions;
+    let step = |f: usize| extent.step(f);
     let speeds: Vec<f64> = plan
         .anchors
         .windows(2)
@@ -450,10 +462,31 @@ fn segment_eases(
         .collect()
 }
 
+/// How far the object's farthest point moves in a step, bounded by `|Δp| + radius·|Δθ|`:
+/// the step length of the `chord` rule (`radius` 0: the position's chord, the `paper` rule's).
+struct Extent<'a> {
+    path: &'a ObjectPath,
+    radius: f64,
+}
+
+impl Extent<'_> {
+    /// Length [m] of the step `f → f+1`.
+    fn step(&self, f: usize) -> f64 {
+        let p = &self.path.positions;
+        let moved = (p[f + 1] - p[f]).norm();
+        if self.radius > 0.0 {
+            let r = &self.path.rotations;
+            moved + self.radius * angle_between(&r[f], &r[f + 1])
+        } else {
+            moved
+        }
+    }
+}
+
 /// Output-time weight of each step `f → f+1` for `f` in `a..b` (reuses `out`).
 fn segment_weights(
     original: &[Vector3<f64>],
-    warped: &[Vector3<f64>],
+    extent: &Extent,
     a: usize,
     b: usize,
     params: &Params,
@@ -461,9 +494,10 @@ fn segment_weights(
 ) {
     out.clear();
     let m = b - a;
+    let warped = &extent.path.positions;
     match params.mode {
         RetimeMode::Chord => {
-            out.extend((a..b).map(|f| (warped[f + 1] - warped[f]).norm()));
+            out.extend((a..b).map(|f| extent.step(f)));
             let total: f64 = out.iter().sum();
             if total <= 1e-12 {
                 out.iter_mut().for_each(|w| *w = 1.0);
@@ -517,6 +551,42 @@ mod tests {
         (path, plan)
     }
 
+    /// Under `chord` a turn in place takes the time a move of its extent (bounding radius ×
+    /// angle) would; under `paper` it takes almost none.
+    #[test]
+    fn chord_mode_gives_a_turn_in_place_the_time_of_its_extent() {
+        // Contact 10..=90: the object moves 0.4 m along x over 10..50, then turns 2 rad about
+        // z in place over 50..90 (at a 0.1 m radius, 0.2 m of travel).
+        let (mut path, plan) = along_x(|i| 0.01 * (i.clamp(10, 50) - 10) as f64);
+        for (i, r) in path.rotations.iter_mut().enumerate() {
+            let angle = 0.05 * (i.clamp(50, 90) - 50) as f64;
+            *r = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), angle);
+        }
+        let params = |mode| Params {
+            mode,
+            continuous_speed: false,
+            ..Params::default()
+        };
+        let turn_time = |radius, mode| {
+            let out = run(&path.positions, &path, &plan, radius, &params(mode)).unwrap();
+            out.timewarp.tau[90] - out.timewarp.tau[50]
+        };
+        // Steps of 0.01 m moving and 0.005 m turning, each plus the floor of 5 % of the
+        // mean step (0.6 m / 80): the turn's share of the 80 output frames.
+        let floor = 0.05 * 0.6 / 80.0;
+        let share = (0.2 + 40.0 * floor) / (0.6 + 80.0 * floor);
+        let chord = turn_time(0.1, RetimeMode::Chord);
+        assert!((chord - 80.0 * share).abs() < 1e-6, "{chord}");
+        // Without a radius the turn is a rest, played at the floor (5 % of 0.4 m / 80): 1.9
+        // output frames.
+        let position_only = turn_time(0.0, RetimeMode::Chord);
+        let floor = 0.05 * 0.4 / 80.0;
+        let rest = 80.0 * 40.0 * floor / (0.4 + 80.0 * floor);
+        assert!((position_only - rest).abs() < 1e-6, "{position_only}");
+        // The paper's rule times by the position's chord only, whatever the radius.
+        assert!(turn_time(0.1, RetimeMode::Paper) < 1e-3);
+    }
+
     #[test]
     fn paper_mode_gives_resting_frames_almost_no_time_and_stays_increasing() {
         let (path, plan) = rest_move_rest();
@@ -525,7 +595,7 @@ mod tests {
             continuous_speed: false,
             ..Params::default()
         };
-        let out = run(&path.positions, &path, &plan, &params).unwrap();
+        let out = run(&path.positions, &path, &plan, 0.0, &params).unwrap();
         let tau = &out.timewarp.tau;
         assert!(
             tau.windows(2).all(|w| w[1] > w[0]),
@@ -549,7 +619,7 @@ mod tests {
             continuous_speed: false,
             ..Params::default()
         };
-        let chord = run(&path.positions, &path, &plan, &constant).unwrap();
+        let chord = run(&path.positions, &path, &plan, 0.0, &constant).unwrap();
         let kept = chord.timewarp.tau[30] - chord.timewarp.tau[10];
         assert!((kept - 0.952).abs() < 0.01, "{kept}");
     }
@@ -581,8 +651,8 @@ mod tests {
                 continuous_speed: false,
                 ..eased.clone()
             };
-            let a = run(&path.positions, &path, &plan, &eased).unwrap();
-            let c = run(&path.positions, &path, &plan, &constant).unwrap();
+            let a = run(&path.positions, &path, &plan, 0.0, &eased).unwrap();
+            let c = run(&path.positions, &path, &plan, 0.0, &constant).unwrap();
             for out in [&a, &c] {
                 let tau = &out.timewarp.tau;
                 assert!(
