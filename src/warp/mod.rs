@@ -147,8 +147,14 @@ pub fn warp_object(
         positions: barrier.positions.clone(),
         rotations: spatial.path.rotations.clone(),
     };
-    let retime = retime::run(&input.positions, &pushed, plan, object_radius, &params.retime)
-        .map_err(|e| crate::Error::invalid(config_source, "(retiming)", e.to_string()))?;
+    let retime = retime::run(
+        &input.positions,
+        &pushed,
+        plan,
+        object_radius,
+        &params.retime,
+    )
+    .map_err(|e| crate::Error::invalid(config_source, "(retiming)", e.to_string()))?;
     Ok(ObjectWarp {
         plan: plan.clone(),
         spatial,

@@ -419,7 +419,8 @@ impl Ease {
 /// object's speed at an anchor between two segments is the harmonic mean of their mean speeds
 /// (at most twice the slower one, 0 when either rests); at the contact window's ends it is the
 /// speed of the untouched frames outside (the recording's own, usually at rest). A segment that
-/// does not move keeps constant speed.
+/// does not move keeps constant speed. Speeds are in the rule's step length (under `chord`,
+/// that of the object's farthest point, [`Extent`]).
 fn segment_eases(extent: &Extent, plan: &WarpPlan, params: &Params) -> Vec<Option<Ease>> {
     let segments = plan.anchors.len().saturating_sub(1);
     if !params.continuous_speed || params.mode == RetimeMode::Speed {
