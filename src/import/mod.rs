@@ -380,7 +380,7 @@ fn finish(
         }
         _ => abs(Path::new(".")).join(&target.out),
     };
-    crate::synth::demo::save_compact(&demo, &out_abs)?;
+    demo.save(&out_abs)?;
     // What warp and validate will read.
     let mut back = Demo::load(&target.out, limits)?;
     back.check_robot(robot)?;

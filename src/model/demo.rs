@@ -326,9 +326,22 @@ impl Demo {
         }
     }
 
-    /// Writes the demonstration to `path` atomically.
+    /// The file's text as [`Demo::save`] writes it to `path`: compact JSON on one line (paths
+    /// relative to `path`'s folder). The frames are machine data: pretty-printed, with one
+    /// number a line, an 850-frame mug output with 100 correspondences a frame took 4.2 MB.
+    pub fn to_bytes(&self, path: &Path) -> Result<Vec<u8>> {
+        let mut text = serde_json::to_vec(&self.to_file(path)).map_err(|e| Error::Parse {
+            path: path.to_path_buf(),
+            field: "(output)".into(),
+            message: e.to_string(),
+        })?;
+        text.push(b'\n');
+        Ok(text)
+    }
+
+    /// Writes the demonstration to `path` atomically ([`Demo::to_bytes`]).
     pub fn save(&self, path: &Path) -> Result<()> {
-        json::write_json_atomic(path, &self.to_file(path))
+        json::write_atomic(path, &self.to_bytes(path)?)
     }
 
     /// The demonstration exactly as [`Demo::load`] reads back the file [`Demo::save`]

@@ -46,9 +46,7 @@ pub fn run_file_names(name: &str) -> [String; 3] {
 pub fn write_run(dir: &Path, run: &WarpRun) -> Result<Written> {
     let [demo_name, frames_name, _] = run_file_names(&run.demo.name);
     let demo = dir.join(&demo_name);
-    let mut demo_bytes = serde_json::to_vec_pretty(&run.demo.to_file(&demo))
-        .map_err(|e| Error::write(&demo, std::io::Error::other(e)))?;
-    demo_bytes.push(b'\n');
+    let demo_bytes = run.demo.to_bytes(&demo)?;
     let frames = dir.join(&frames_name);
     let frames_bytes = crate::model::frames::csv_bytes(&frames, &run.frames)?;
     let mut report = run.report.clone();

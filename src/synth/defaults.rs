@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
-use super::demo::{SynthSpec, Synthesis, Timing, compact_bytes, save_compact, synthesize};
+use super::demo::{SynthSpec, Synthesis, Timing, synthesize};
 use super::motion::Motion;
 use super::objects::ObjectKind;
 use crate::robot::Robot;
@@ -170,7 +170,7 @@ pub fn base_demo_bytes(
     let mut syn = synthesize(&base.spec, &robot, &robot_path, &mesh_path)?;
     syn.demo.source = out.clone();
     syn.demo.scene = Some(root.join("scenes/kitchen.json"));
-    let bytes = compact_bytes(&syn.demo, &out)?;
+    let bytes = syn.demo.to_bytes(&out)?;
     Ok((syn, bytes))
 }
 
@@ -296,7 +296,7 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
         }
         crate::model::json::write_atomic(&scene_path, &scene_bytes(&spec))?;
         written.push(scene_path.clone());
-        save_compact(&syn.demo, &req.out)
+        syn.demo.save(&req.out)
     })();
     if result.is_err() {
         for f in &written {

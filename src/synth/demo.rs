@@ -820,22 +820,3 @@ pub fn round_demo(demo: &mut Demo) {
         }
     }
 }
-
-/// The compact JSON text (one line) of `demo` as a file at `path` (paths relative to it).
-pub fn compact_bytes(demo: &Demo, path: &Path) -> Result<Vec<u8>> {
-    let file = demo.to_file(path);
-    let mut text = serde_json::to_vec(&file).map_err(|e| Error::Parse {
-        path: path.to_path_buf(),
-        field: "(output)".into(),
-        message: e.to_string(),
-    })?;
-    text.push(b'\n');
-    Ok(text)
-}
-
-/// Writes `demo` to `path` as compact JSON (one line; a pretty-printed demonstration with
-/// 50 correspondences per frame is several times larger), atomically, with paths relative
-/// to the file.
-pub fn save_compact(demo: &Demo, path: &Path) -> Result<()> {
-    crate::model::json::write_atomic(path, &compact_bytes(demo, path)?)
-}

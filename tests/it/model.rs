@@ -67,9 +67,9 @@ fn the_fixture_itself_loads() {
 fn malformed_json_gives_line_and_column() {
     let msg = error_of_text(|t| t[..t.len() / 2].to_string());
     has(&msg, &["box.demo.json", "line ", "column"]);
-    let msg = error_of_text(|t| t.replacen("\"fps\": 30.0", "\"fps\": NaN", 1));
+    let msg = error_of_text(|t| t.replacen("\"fps\":30.0", "\"fps\":NaN", 1));
     has(&msg, &["line ", "no NaN"]);
-    let msg = error_of_text(|t| t.replacen("\"fps\": 30.0", "\"fps\": 1e999", 1));
+    let msg = error_of_text(|t| t.replacen("\"fps\":30.0", "\"fps\":1e999", 1));
     has(&msg, &["line "]);
 }
 
