@@ -328,7 +328,8 @@ impl Demo {
 
     /// The file's text as [`Demo::save`] writes it to `path`: compact JSON on one line (paths
     /// relative to `path`'s folder). The frames are machine data: pretty-printed, with one
-    /// number a line, an 850-frame mug output with 100 correspondences a frame took 4.2 MB.
+    /// number a line, a 504-frame mug output (59 correspondences in each of its 244 contact
+    /// frames) took 4.2 MB, compact 1.8 MB.
     pub fn to_bytes(&self, path: &Path) -> Result<Vec<u8>> {
         let mut text = serde_json::to_vec(&self.to_file(path)).map_err(|e| Error::Parse {
             path: path.to_path_buf(),
