@@ -426,7 +426,6 @@ fn segment_eases(extent: &Extent, plan: &WarpPlan, params: &Params) -> Vec<Optio
     if !params.continuous_speed || params.mode == RetimeMode::Speed {
         return vec![None; segments];
     }
-    let positions = &extent.path.positions;
     let step = |f: usize| extent.step(f);
     let speeds: Vec<f64> = plan
         .anchors
@@ -435,7 +434,7 @@ fn segment_eases(extent: &Extent, plan: &WarpPlan, params: &Params) -> Vec<Optio
         .collect();
     let (c0, c1) = (plan.segment.start, plan.segment.end);
     let before = if c0 > 0 { step(c0 - 1) } else { 0.0 };
-    let after = if c1 + 1 < positions.len() {
+    let after = if c1 + 1 < extent.path.len() {
         step(c1)
     } else {
         0.0
