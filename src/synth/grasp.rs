@@ -275,6 +275,9 @@ pub fn solve(
         barrier_weight: 0.0,
         objective: crate::model::Objective::Paper,
         stall_decrease: 1e-6,
+        // The committed demonstrations were synthesized ending a solve at the first small
+        // decrease; kept so that they stay reproducible.
+        stall_steps: 1,
         ..IkParams::default()
     };
     // The grasp's penetration term is the surface-point one on the object's triangle mesh:

@@ -63,9 +63,10 @@
 //! `μ·diag(H)`, Nielsen's damping update, and a Cholesky factorization into preallocated
 //! storage; joints at a limit whose gradient pushes outward are frozen for the step, and
 //! every trial is clamped to the limits. Each linear solve counts as one iteration. LM also
-//! stops early, not converged, at a local minimum that misses the stop rule (an accepted
-//! step lowers `F` by less than [`Params::stall_decrease`] of itself, or the step vanishes):
-//! typically fingers that cannot come closer without pressing in, or a barrier.
+//! stops early, not converged, at a local minimum that misses the stop rule
+//! ([`Params::stall_steps`] accepted steps in a row each lower `F` by less than
+//! [`Params::stall_decrease`] of itself, or the step vanishes): typically fingers that cannot
+//! come closer without pressing in, or a barrier.
 //!
 //! **`adam`**: the paper's solver, faithful: Adam (β = 0.9, 0.999, ε = 1e-8, learning rate
 //! 0.01, moments reset every frame) on exactly `F` (no proximal term; with the paper's

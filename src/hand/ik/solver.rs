@@ -23,9 +23,9 @@ const TRANSLATION_SCALE_M: f64 = 0.1;
 const MU_INIT: f64 = 1e-3;
 /// Damping beyond which LM gives up (the model no longer predicts any decrease).
 const MU_MAX: f64 = 1e12;
-/// LM stops (not converged) when an accepted step lowers `F` by less than
-/// [`Params::stall_decrease`] of itself, or when the step's largest component is below this
-/// [m or rad].
+/// LM stops (not converged) when [`Params::stall_steps`] accepted steps in a row each lower
+/// `F` by less than [`Params::stall_decrease`] of itself, or when the step's largest component
+/// is below this [m or rad].
 const STALL_STEP: f64 = 1e-10;
 
 /// Values of the objective's parts at one configuration.

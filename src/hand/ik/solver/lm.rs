@@ -144,6 +144,24 @@ impl IkSolver<'_> {
     /// Levenberg-Marquardt (see the module docs) from `start`, the evaluation of the warm
     /// start (with `self.poses` and `self.hits` at it). Returns (converged, iterations,
     /// eval, whether the iteration cap ended it).
+    /// Decrease of the model Σe² that the step predicts: −2δᵀg − δᵀHδ (= δᵀHδ + 2μδᵀDδ > 0).
+    fn predicted_decrease(&self) -> f64 {
+        let n = self.n;
+        let mut pred = 0.0;
+        for a in 0..n {
+            let da = self.step[a];
+            if da == 0.0 {
+                continue;
+            }
+            let mut hrow = 0.0;
+            for b in 0..n {
+                hrow += self.h[(a, b)] * self.step[b];
+            }
+            pred += -2.0 * da * self.g[a] - da * hrow;
+        }
+        pred
+    }
+
     pub(super) fn solve_lm(
         &mut self,
         object_pose: &Isometry3<f64>,
@@ -161,6 +179,7 @@ impl IkSolver<'_> {
         let (mut mu, mut nu) = (MU_INIT, 2.0);
         let mut stale = true;
         let mut stalled = false;
+        let mut stalls = 0;
         loop {
             if self.meets_stop_rule(&cur, nc) {
                 return (true, iterations, cur, false);
@@ -212,19 +231,7 @@ impl IkSolver<'_> {
             self.step.neg_mut();
             chol.solve_mut(&mut self.step);
             self.a = chol.unpack_dirty();
-            // Predicted decrease of the model Σe²: −2δᵀg − δᵀHδ (= δᵀHδ + 2μδᵀDδ > 0).
-            let mut pred = 0.0;
-            for a in 0..n {
-                let da = self.step[a];
-                if da == 0.0 {
-                    continue;
-                }
-                let mut hrow = 0.0;
-                for b in 0..n {
-                    hrow += self.h[(a, b)] * self.step[b];
-                }
-                pred += -2.0 * da * self.g[a] - da * hrow;
-            }
+            let pred = self.predicted_decrease();
             let mut trial_wrist = *wrist;
             let s = &self.step;
             apply_wrist_step(
@@ -241,10 +248,15 @@ impl IkSolver<'_> {
             self.q_trial = q_trial;
             let gain = (cur.total(nc) - next.total(nc)) / pred.max(1e-300);
             if gain > 0.0 && next.total(nc).is_finite() {
-                // A decrease below `stall_decrease` of F cannot carry the frame to the
-                // threshold in any useful number of iterations: a local minimum.
-                stalled =
-                    cur.total(nc) - next.total(nc) < self.params.stall_decrease * cur.total(nc);
+                // Decreases below `stall_decrease` of F, `stall_steps` in a row, cannot carry
+                // the frame to the threshold in any useful number of iterations: a local
+                // minimum. (One alone may be a step shortened by raised damping.)
+                if cur.total(nc) - next.total(nc) < self.params.stall_decrease * cur.total(nc) {
+                    stalls += 1;
+                } else {
+                    stalls = 0;
+                }
+                stalled = stalls >= self.params.stall_steps.max(1);
                 *wrist = trial_wrist;
                 q.copy_from_slice(&self.q_trial);
                 std::mem::swap(&mut self.poses, &mut self.trial_poses);
