@@ -29,6 +29,34 @@ fn warp(
     .expect("warp runs")
 }
 
+/// Stage 4 alone on a built-in config: contact IK with `params`, warm-started from the
+/// baseline hand, with the config's barriers and the object's distance field.
+fn solve_ik(config: &str, params: &dexwarp::hand::ik::Params) -> dexwarp::hand::ik::Stats {
+    use dexwarp::hand::{baseline, ik};
+    let config = repo(config);
+    let inputs = Inputs::load(&config, None, &Limits::default()).unwrap();
+    let run = warp(
+        &config,
+        Objective::NonPenetrating,
+        Solver::Lm,
+        HandMethod::Baseline,
+    );
+    let sdf = dexwarp::geometry::object_sdf(&inputs.mesh).unwrap();
+    let barriers =
+        pipeline::barrier_shapes(&inputs.config, &inputs.scene, &Limits::default()).unwrap();
+    let init = baseline::run(&inputs.demo, &run.object).unwrap();
+    ik::run(
+        &inputs.robot,
+        &inputs.demo,
+        &run.object,
+        &init,
+        &barriers,
+        Some(&sdf),
+        params,
+    )
+    .1
+}
+
 /// A loose threshold never returns contacts fitting worse than the recording's: at 10 mm
 /// the default objective stops a frame only below the recording's own fit (its source
 /// frame's and its D_C), so D_C stays at or below the original's even where τ stretches the
@@ -134,19 +162,7 @@ fn default_objective_keeps_fingers_out_where_the_paper_presses_in() {
 /// Neither solver returns a frame with a higher objective than its warm start.
 #[test]
 fn no_frame_ends_worse_than_its_warm_start() {
-    use dexwarp::hand::{baseline, ik};
-    let config = repo("scenes/configs/mug_pass_wall.json");
-    let inputs = Inputs::load(&config, None, &Limits::default()).unwrap();
-    let run = warp(
-        &config,
-        Objective::NonPenetrating,
-        Solver::Lm,
-        HandMethod::Baseline,
-    );
-    let sdf = dexwarp::geometry::object_sdf(&inputs.mesh).unwrap();
-    let barriers =
-        pipeline::barrier_shapes(&inputs.config, &inputs.scene, &Limits::default()).unwrap();
-    let init = baseline::run(&inputs.demo, &run.object).unwrap();
+    use dexwarp::hand::ik;
     for solver in [Solver::Lm, Solver::Adam] {
         let params = ik::Params {
             solver,
@@ -154,15 +170,7 @@ fn no_frame_ends_worse_than_its_warm_start() {
             warm_start: dexwarp::model::WarmStart::FollowObject,
             ..ik::Params::default()
         };
-        let (_, stats) = ik::run(
-            &inputs.robot,
-            &inputs.demo,
-            &run.object,
-            &init,
-            &barriers,
-            Some(&sdf),
-            &params,
-        );
+        let stats = solve_ik("scenes/configs/mug_pass_wall.json", &params);
         for (k, f) in stats.frames.iter().enumerate() {
             assert!(
                 f.objective_end <= f.objective_start * (1.0 + 1e-12) + 1e-15,
@@ -329,19 +337,7 @@ fn smoothing_does_not_press_the_hand_in_where_time_jumps() {
 /// few iterations far above the threshold, which more iterations bring under it.
 #[test]
 fn one_small_decrease_does_not_end_a_frame() {
-    use dexwarp::hand::{baseline, ik};
-    let config = repo("scenes/configs/mug_pass_in_sink.json");
-    let inputs = Inputs::load(&config, None, &Limits::default()).unwrap();
-    let run = warp(
-        &config,
-        Objective::NonPenetrating,
-        Solver::Lm,
-        HandMethod::Baseline,
-    );
-    let sdf = dexwarp::geometry::object_sdf(&inputs.mesh).unwrap();
-    let barriers =
-        pipeline::barrier_shapes(&inputs.config, &inputs.scene, &Limits::default()).unwrap();
-    let init = baseline::run(&inputs.demo, &run.object).unwrap();
+    use dexwarp::hand::ik;
     let solve = |stall_steps: usize| {
         let params = ik::Params {
             threshold_mm: 10.0,
@@ -349,16 +345,7 @@ fn one_small_decrease_does_not_end_a_frame() {
             stall_steps,
             ..ik::Params::default()
         };
-        ik::run(
-            &inputs.robot,
-            &inputs.demo,
-            &run.object,
-            &init,
-            &barriers,
-            Some(&sdf),
-            &params,
-        )
-        .1
+        solve_ik("scenes/configs/mug_pass_in_sink.json", &params)
     };
     let (first, three) = (solve(1), solve(ik::Params::default().stall_steps));
     let iterations = |s: &ik::Stats| s.frames.iter().map(|f| f.iterations).sum::<usize>();

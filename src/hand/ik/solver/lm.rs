@@ -141,9 +141,6 @@ impl IkSolver<'_> {
         }
     }
 
-    /// Levenberg-Marquardt (see the module docs) from `start`, the evaluation of the warm
-    /// start (with `self.poses` and `self.hits` at it). Returns (converged, iterations,
-    /// eval, whether the iteration cap ended it).
     /// Decrease of the model Σe² that the step predicts: −2δᵀg − δᵀHδ (= δᵀHδ + 2μδᵀDδ > 0).
     fn predicted_decrease(&self) -> f64 {
         let n = self.n;
@@ -162,6 +159,9 @@ impl IkSolver<'_> {
         pred
     }
 
+    /// Levenberg-Marquardt (see the module docs) from `start`, the evaluation of the warm
+    /// start (with `self.poses` and `self.hits` at it). Returns (converged, iterations,
+    /// eval, whether the iteration cap ended it).
     pub(super) fn solve_lm(
         &mut self,
         object_pose: &Isometry3<f64>,
