@@ -47,6 +47,31 @@ pub fn grasp_slide_mm(demo: &Demo) -> Option<f64> {
     Some(rel.iter().map(|r| (r - mean).norm()).fold(0.0, f64::max) * 1e3)
 }
 
+/// How far an output's grasp sits from the recording's [mm]: over the output frames
+/// `frames` (the contact segment), the mean distance between the wrist origin in the object's
+/// frame and the recorded one at the source frame `source(t)`. 0 for the rigid transfer at
+/// its known frames; contact IK moves it where it fits correspondences that the recorded hand
+/// does not (a capture error shared by a frame's points). `None` for an empty range.
+pub fn grasp_shift_mm(
+    original: &Demo,
+    out: &Demo,
+    frames: std::ops::RangeInclusive<usize>,
+    source: impl Fn(usize) -> usize,
+) -> Option<f64> {
+    let in_object = |f: &crate::model::Frame| {
+        f.object
+            .inverse_transform_point(&f.wrist.translation.vector.into())
+            .coords
+    };
+    let shifts: Vec<f64> = frames
+        .filter_map(|t| {
+            let (o, s) = (out.frames.get(t)?, original.frames.get(source(t))?);
+            Some((in_object(o) - in_object(s)).norm())
+        })
+        .collect();
+    (!shifts.is_empty()).then(|| shifts.iter().sum::<f64>() / shifts.len() as f64 * 1e3)
+}
+
 /// The deepest hand-object penetration over all frames of `demo` [mm]: the hand's
 /// penetration probes in the object's signed distance field (the measure the contact IK
 /// constrains and the physics check reports). 0 when the hand never enters the object.
@@ -241,5 +266,22 @@ mod tests {
             f.contacts.clear();
         }
         assert_eq!(grasp_slide_mm(&none), None);
+    }
+
+    /// The same grasp gives no shift whatever the frame mapping; a grasp 3 mm along the
+    /// object's z from the recorded one, turned with the object, gives 3 mm; an empty range
+    /// gives no figure.
+    #[test]
+    fn grasp_shift_is_the_wrists_distance_from_the_recorded_grasp_in_the_objects_frame() {
+        let recorded = carried(|_| Vector3::new(0.1, 0.0, 0.0));
+        assert!(grasp_shift_mm(&recorded, &recorded, 5..=14, |t| t).unwrap() < 1e-9);
+        // Output frame t shows input frame t / 2 (a 2x stretch): still the recorded grasp.
+        assert!(grasp_shift_mm(&recorded, &recorded, 5..=14, |t| t / 2).unwrap() < 1e-9);
+        let higher = carried(|_| Vector3::new(0.1, 0.0, 0.003));
+        let shift = grasp_shift_mm(&recorded, &higher, 5..=14, |t| t).unwrap();
+        assert!((shift - 3.0).abs() < 1e-9, "{shift}");
+        #[allow(clippy::reversed_empty_ranges)]
+        let empty = 5..=4;
+        assert_eq!(grasp_shift_mm(&recorded, &higher, empty, |t| t), None);
     }
 }

@@ -284,6 +284,7 @@ fn fill(row: &mut Row, report: &Report, spec: &Spec, dir: &Path, stretched: &[Ra
         row.frames_out = Some(report.frames_out);
         row.d_c_stretched_mm = mean_d_c_over(&dir.join("frames.csv"), stretched);
         row.grasp_slide_mm = m.grasp_slide_mm.as_ref().map(|p| p.warped);
+        row.grasp_shift_mm = m.grasp_shift_mm;
     }
 }
 
@@ -301,6 +302,7 @@ fn fill_baseline(
         row.baseline_d_c_mm = Some(report.metrics.d_c_mm.warped);
         row.baseline_d_c_stretched_mm = mean_d_c_over(&dir.join(BASELINE_FRAMES), stretched);
         row.baseline_grasp_slide_mm = report.metrics.grasp_slide_mm.as_ref().map(|p| p.warped);
+        row.baseline_grasp_shift_mm = report.metrics.grasp_shift_mm;
     }
 }
 

@@ -75,6 +75,11 @@ pub struct Row {
     pub grasp_slide_mm: Option<f64>,
     #[serde(default)]
     pub baseline_grasp_slide_mm: Option<f64>,
+    /// How far each hand's grasp sits from the recorded one (`metrics::grasp_shift_mm`) [mm].
+    #[serde(default)]
+    pub grasp_shift_mm: Option<f64>,
+    #[serde(default)]
+    pub baseline_grasp_shift_mm: Option<f64>,
 }
 
 /// A segment whose duration factor is at least this is *stretched*: its D_C is reported

@@ -73,6 +73,10 @@ pub struct Metrics {
     /// (`metrics::grasp_slide_mm`) [mm]; `null` without contacts.
     #[serde(default)]
     pub grasp_slide_mm: Option<Pair>,
+    /// How far the output's grasp sits from the recording's over the contact segment
+    /// (`metrics::grasp_shift_mm`) [mm]; `null` without contacts or for `validate`.
+    #[serde(default)]
+    pub grasp_shift_mm: Option<f64>,
 }
 
 /// One frame and its contact distance.

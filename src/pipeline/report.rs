@@ -193,6 +193,12 @@ fn metrics_report(
             grasp_slide_mm: metrics::grasp_slide_mm(original)
                 .zip(metrics::grasp_slide_mm(out))
                 .map(|(original, warped)| Pair { original, warped }),
+            grasp_shift_mm: metrics::grasp_shift_mm(
+                original,
+                out,
+                plan.segment.start..=plan.t_end_new(),
+                |t| object.source_frame(t),
+            ),
         },
         constraints: Constraints {
             hand_object_penetration_mm: crate::geometry::object_sdf(mesh).map(|sdf| Pair {

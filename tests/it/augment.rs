@@ -627,6 +627,15 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
             slide,
             own["metrics"]["grasp_slide_mm"]["warped"].as_f64().unwrap()
         );
+        // And how far each hand's grasp sits from the recorded one.
+        for (c, rep) in [
+            ("grasp_shift_mm", &own),
+            ("baseline_grasp_shift_mm", &report),
+        ] {
+            let shift: f64 = r[col(c)].parse().unwrap();
+            assert_eq!(shift, rep["metrics"]["grasp_shift_mm"].as_f64().unwrap());
+            assert!(shift.is_finite() && shift >= 0.0, "{c}: {shift}");
+        }
     }
     assert_eq!(
         b["grasp_slide_mm"]["contact_ik"]["n"].as_u64(),
