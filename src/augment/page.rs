@@ -155,6 +155,10 @@ fn baseline_section(b: &BaselineStats) -> String {
             "grasp slide: the wrist's travel on the object while in contact",
             &b.grasp_slide_mm,
         ),
+        (
+            "grasp shift: the wrist's distance from the recorded grasp, on the object",
+            &b.grasp_shift_mm,
+        ),
     ] {
         h.push_str(&format!(
             "<tr><td>{what}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",

@@ -320,6 +320,9 @@ pub struct BaselineStats {
     /// How far each hand slides on the object over the contact segment [mm].
     #[serde(default)]
     pub grasp_slide_mm: HandPair,
+    /// How far each hand's grasp sits from the recorded one over the contact segment [mm].
+    #[serde(default)]
+    pub grasp_shift_mm: HandPair,
     /// Each hand's failures over the same samples, by [`Cause`].
     #[serde(default)]
     pub failed_by_cause: CausePair,
@@ -486,6 +489,7 @@ impl BaselineStats {
         b.d_c_mm = pair(|r| r.d_c_mm, |r| r.baseline_d_c_mm);
         b.d_c_stretched_mm = pair(|r| r.d_c_stretched_mm, |r| r.baseline_d_c_stretched_mm);
         b.grasp_slide_mm = pair(|r| r.grasp_slide_mm, |r| r.baseline_grasp_slide_mm);
+        b.grasp_shift_mm = pair(|r| r.grasp_shift_mm, |r| r.baseline_grasp_shift_mm);
         Some(b)
     }
 }
