@@ -29,6 +29,13 @@ pub fn d_wo_mm(demo: &Demo) -> f64 {
         * 1e3
 }
 
+/// The wrist origin of a frame in its object's frame [m].
+fn wrist_in_object(f: &crate::model::Frame) -> nalgebra::Vector3<f64> {
+    f.object
+        .inverse_transform_point(&f.wrist.translation.vector.into())
+        .coords
+}
+
 /// How far the hand slides on the object while it holds it [mm]: over the contact segment,
 /// the largest distance of the wrist origin, in the object's frame, from its mean position
 /// there. 0 for a grasp held rigidly (a synthesized recording, the rigid baseline); a hand
@@ -37,11 +44,7 @@ pub fn grasp_slide_mm(demo: &Demo) -> Option<f64> {
     let s = demo.contact_segment()?;
     let rel: Vec<nalgebra::Vector3<f64>> = demo.frames[s.start..=s.end]
         .iter()
-        .map(|f| {
-            f.object
-                .inverse_transform_point(&f.wrist.translation.vector.into())
-                .coords
-        })
+        .map(wrist_in_object)
         .collect();
     let mean = rel.iter().sum::<nalgebra::Vector3<f64>>() / rel.len() as f64;
     Some(rel.iter().map(|r| (r - mean).norm()).fold(0.0, f64::max) * 1e3)
@@ -58,15 +61,10 @@ pub fn grasp_shift_mm(
     frames: std::ops::RangeInclusive<usize>,
     source: impl Fn(usize) -> usize,
 ) -> Option<f64> {
-    let in_object = |f: &crate::model::Frame| {
-        f.object
-            .inverse_transform_point(&f.wrist.translation.vector.into())
-            .coords
-    };
     let shifts: Vec<f64> = frames
         .filter_map(|t| {
             let (o, s) = (out.frames.get(t)?, original.frames.get(source(t))?);
-            Some((in_object(o) - in_object(s)).norm())
+            Some((wrist_in_object(o) - wrist_in_object(s)).norm())
         })
         .collect();
     (!shifts.is_empty()).then(|| shifts.iter().sum::<f64>() / shifts.len() as f64 * 1e3)

@@ -758,7 +758,7 @@ fn committed_demos_verdicts() {
 }
 
 /// teapot_timewarp_stress_rotate at 3.5 mm carries the pot and releases it on the island
-/// within 9 mm of its plan; the hook grasp's retreat then drags it 16 cm. The report names the
+/// within 9 mm of its plan; the hook grasp's retreat then drags it 17 cm. The report names the
 /// push, with frames that bracket it, instead of a bare position error.
 #[test]
 fn a_retreat_that_drags_the_released_teapot_is_reported_as_a_push() {
