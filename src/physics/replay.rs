@@ -30,7 +30,8 @@
 //!   touched it, an object stays stepped while it settles on its support; one that rests on
 //!   a support at frame 0 (within [`super::Params::support_gap_m`]) and has not come to rest
 //!   after [`SETTLE_S`] is held at rest (speed set to zero, world unstepped) until a hand
-//!   comes within reach: the demonstration says it lies there. Stepping it on adds what the
+//!   comes within reach, unless one is within reach already: the demonstration says it lies
+//!   there. Stepping it on adds what the
 //!   engine does to an untouched object: Rapier has no rolling resistance, and the apple
 //!   alone on a table (its 40-gon hull resting on a flat face) rocks at 1-2 rad/s and turns
 //!   17° in 3.5 s, the whole approach of its demonstration, which the hand then holds as
@@ -301,9 +302,15 @@ pub fn replay(
         came_to_rest |= still;
         resting = if ever_touched {
             reach.is_some() && still
-        } else if settled == Some(i) && !came_to_rest && !touched {
+        } else if settled == Some(i)
+            && !came_to_rest
+            && !touched
+            && reach.is_some_and(|r| !world.hand_within(&link_poses, r))
+        {
             // Untouched and still moving after the settling time: held at rest from here
-            // until a hand comes, with no speed to resume from.
+            // until a hand comes, with no speed to resume from. A hand already within reach
+            // is about to touch it: holding it then would change the run and leave nothing
+            // out.
             world.stop_object();
             reach.is_some()
         } else {

@@ -5,9 +5,11 @@
 //! scaled in time, so position, velocity and acceleration are continuous and the object
 //! starts and ends at rest. With `τ ∈ [0, 1]` the normalised time of the motion:
 //!
-//! - `lift_place`: rise `h·mj(τ/0.35)`, carry `d·mj((τ − 0.15)/0.7)`, descend
-//!   `(d_z − h)·mj((τ − 0.65)/0.35)`: the object leaves the support vertically, travels
-//!   in an arc and comes down vertically onto the place position `start + d`.
+//! - `lift_place`: rise `h·mj(τ/r)`, carry `d·mj((τ − a)/(1 − 2a))`, descend
+//!   `(d_z − h)·mj((τ − 1 + r)/r)` with `r` = [`MotionParams::rise_frac`] (0.35 by default)
+//!   and `a = 3r/7` (0.15): the object leaves the support vertically, travels in an arc and
+//!   comes down vertically onto the place position `start + d`. A smaller `r` overlaps the
+//!   rise and the descent more with the carry, so the speed dips less between them.
 //! - `pass`: as `lift_place` with the carry bowed sideways by `a·sin(π·c)` (`c` the carry
 //!   progress, `a` = [`MotionParams::arc_m`]): the object is handed along a curve.
 //! - `pour`: rise and carry a fraction `f` of `d` to the pour spot, tilt by `θ` about a world
@@ -92,6 +94,8 @@ pub struct MotionParams {
     pub tilt_axis: Vector3<f64>,
     /// Fraction of the carry done before the pour (`pour` only).
     pub pour_at: f64,
+    /// Fraction of the motion the rise and the descent each take (`lift_place`, `pass`).
+    pub rise_frac: f64,
 }
 
 impl Default for MotionParams {
@@ -103,6 +107,7 @@ impl Default for MotionParams {
             tilt_rad: 0.0,
             tilt_axis: Vector3::y(),
             pour_at: 0.6,
+            rise_frac: 0.35,
         }
     }
 }
@@ -130,8 +135,10 @@ pub fn object_pose(
     let h = params.lift_m;
     let (offset, angle) = match motion {
         Motion::LiftPlace | Motion::Pass => {
-            let c = step(tau, 0.15, 0.7);
-            let z = h * step(tau, 0.0, 0.35) + (d.z - h) * step(tau, 0.65, 0.35);
+            let r = params.rise_frac.clamp(0.05, 0.5);
+            let a = 3.0 * r / 7.0;
+            let c = step(tau, a, 1.0 - 2.0 * a);
+            let z = h * step(tau, 0.0, r) + (d.z - h) * step(tau, 1.0 - r, r);
             let mut o = horizontal * c + Vector3::z() * z;
             if motion == Motion::Pass && horizontal.norm() > 1e-9 {
                 let left = Vector3::z().cross(&horizontal).normalize();
@@ -194,6 +201,45 @@ mod tests {
         }
         let tilted = object_pose(Motion::Pour, &params, &start, 0.56);
         assert!((tilted.rotation.angle() - 0.8).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_smaller_rise_frac_moves_the_object_at_a_more_even_pace() {
+        let start = Isometry3::translation(0.0, 0.0, 0.9);
+        // RMS deviation of the normalised path length travelled from the normalised time: 0
+        // for a constant speed.
+        let unevenness = |rise_frac: f64| {
+            let params = MotionParams {
+                carry: Vector3::new(-0.45, 0.0, 0.0),
+                rise_frac,
+                ..MotionParams::default()
+            };
+            let n = 1000;
+            let p = |k: usize| {
+                object_pose(Motion::LiftPlace, &params, &start, k as f64 / n as f64)
+                    .translation
+                    .vector
+            };
+            let mut s = vec![0.0];
+            for k in 0..n {
+                s.push(s[k] + (p(k + 1) - p(k)).norm());
+            }
+            let total = s[n];
+            let sum: f64 = (0..=n)
+                .map(|k| (s[k] / total - k as f64 / n as f64).powi(2))
+                .sum();
+            (sum / (n + 1) as f64).sqrt()
+        };
+        let (wide, overlapped) = (unevenness(0.35), unevenness(0.2));
+        assert!((wide - 0.0745).abs() < 2e-3, "{wide}");
+        assert!((overlapped - 0.0351).abs() < 2e-3, "{overlapped}");
+        let params = MotionParams {
+            carry: Vector3::new(-0.45, 0.0, 0.0),
+            rise_frac: 0.2,
+            ..MotionParams::default()
+        };
+        let end = object_pose(Motion::LiftPlace, &params, &start, 1.0);
+        assert!((end.translation.vector - Vector3::new(-0.45, 0.0, 0.9)).norm() < 1e-12);
     }
 
     #[test]

@@ -757,13 +757,13 @@ fn committed_demos_verdicts() {
     );
 }
 
-/// teapot_timewarp_stress_rotate at 3.5 mm carries the pot and releases it on the island
-/// within 9 mm of its plan; the hook grasp's retreat then drags it 17 cm. The report names the
+/// teapot_pour_cups at 3.5 mm carries the pot and releases it on the island within 13 mm of
+/// its plan; the hook grasp's retreat then drags it 17 cm. The report names the
 /// push, with frames that bracket it, instead of a bare position error.
 #[test]
 fn a_retreat_that_drags_the_released_teapot_is_reported_as_a_push() {
     let dir = tempfile::tempdir().unwrap();
-    let config = crate::fixtures::repo("scenes/configs/teapot_timewarp_stress_rotate.json");
+    let config = crate::fixtures::repo("scenes/configs/teapot_pour_cups.json");
     let out = dir.path().join("out");
     let o = crate::fixtures::dexwarp(&[
         "warp",
