@@ -31,11 +31,10 @@
 //!   a support at frame 0 (within [`super::Params::support_gap_m`]) and has not come to rest
 //!   after [`SETTLE_S`] is held at rest (speed set to zero, world unstepped) until a hand
 //!   comes within reach, unless one is within reach already: the demonstration says it lies
-//!   there. Stepping it on adds what the
-//!   engine does to an untouched object: Rapier has no rolling resistance, and the apple
-//!   alone on a table (its 40-gon hull resting on a flat face) rocks at 1-2 rad/s and turns
-//!   17° in 3.5 s, the whole approach of its demonstration, which the hand then holds as
-//!   tracking error. A settled object is not held: holding the frying pan from frame 0, so
+//!   there. Stepping it on adds what the engine does to an untouched object: Rapier has no
+//!   rolling resistance, and the apple alone on a table (its 40-gon hull resting on a flat
+//!   face) rocks at 1-2 rad/s and turns 17° in 3.5 s, the whole approach of its
+//!   demonstration, which the hand then holds as tracking error. A settled object is not held: holding the frying pan from frame 0, so
 //!   that its contacts with the stove formed only as the hand came, or right after it
 //!   settled, cost 11 and 30 of 181 passing frying-pan variations (`augment`, N = 200,
 //!   seed 1: grasps at the slip limit); stepping it until the grasp keeps all 181.

@@ -12,7 +12,7 @@
 //!
 //! The frame counts of the four human demonstrations are those of the paper's GRAB
 //! sequences (Table 4). Their object rests for 10-14 % of the frames at either end and moves
-//! at an even speed in between (the rise and the descent overlap the carry,
+//! at a more even pace in between (the rise and the descent overlap the carry,
 //! `HUMAN_RISE_FRAC`): that is what the paper's timewarp discrepancies (Table 5) imply of its
 //! recordings. When the object rests for a fraction `r` of the frames at both ends, the
 //! discrepancy (paper's definition) is at least `√(2r³/3)` whatever the waypoints' timing, and

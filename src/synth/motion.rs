@@ -9,7 +9,8 @@
 //!   `(d_z − h)·mj((τ − 1 + r)/r)` with `r` = [`MotionParams::rise_frac`] (0.35 by default)
 //!   and `a = 3r/7` (0.15): the object leaves the support vertically, travels in an arc and
 //!   comes down vertically onto the place position `start + d`. A smaller `r` overlaps the
-//!   rise and the descent more with the carry, so the speed dips less between them.
+//!   rise and the descent more with the carry, which then spans more of the motion: the path
+//!   length travelled grows more evenly with time.
 //! - `pass`: as `lift_place` with the carry bowed sideways by `a·sin(π·c)` (`c` the carry
 //!   progress, `a` = [`MotionParams::arc_m`]): the object is handed along a curve.
 //! - `pour`: rise and carry a fraction `f` of `d` to the pour spot, tilt by `θ` about a world
