@@ -270,6 +270,18 @@ impl Mesh {
         s
     }
 
+    /// The mesh as [`Mesh::write_obj`] writes it and [`Mesh::load`] reads it back (positions
+    /// to the micrometre, read in single precision): what every command that loads the
+    /// written file sees.
+    pub fn as_written(&self) -> Result<Mesh> {
+        let text = self.to_obj_string();
+        read_obj(
+            Path::new("(mesh as written).obj"),
+            text.as_bytes(),
+            &Limits::default(),
+        )
+    }
+
     /// Writes [`Mesh::to_obj_string`] to `path`.
     pub fn write_obj(&self, path: &Path) -> Result<()> {
         std::fs::write(path, self.to_obj_string()).map_err(|e| Error::write(path, e))
@@ -442,6 +454,31 @@ fn read_stl(path: &Path, mut bytes: Vec<u8>, limits: &Limits) -> Result<Mesh> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn as_written_is_what_load_reads_back_from_the_written_file() {
+        let mut mesh = cube();
+        // -0.03 + 0.01 is -0.019999999999999997 in memory, -0.020000 in the file, and the
+        // OBJ reader's single precision reads that back as -0.019999999552965164.
+        mesh.vertices[0].x = -0.03 + 0.01;
+        mesh.vertices[1].y = 1.0 / 3.0;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.obj");
+        mesh.write_obj(&path).unwrap();
+        let loaded = Mesh::load(&path, Vector3::repeat(1.0), &Limits::default()).unwrap();
+        let written = mesh.as_written().unwrap();
+        assert_eq!(written.vertices, loaded.vertices);
+        assert_eq!(written.triangles, loaded.triangles);
+        // (The reader orders the vertices as the faces first use them.)
+        assert!(written.vertices.iter().any(|v| v.x == f64::from(-0.02f32)));
+        assert!(
+            written
+                .vertices
+                .iter()
+                .any(|v| v.y == f64::from(0.333333f32))
+        );
+        assert_ne!(written.vertices, mesh.vertices);
+    }
 
     /// A unit cube centred at the origin, outward-wound.
     fn cube() -> Mesh {
