@@ -169,10 +169,7 @@ fn ball_pass(
     stats: &mut Stats,
 ) {
     let frames: Vec<usize> = spans.iter().flat_map(|r| r.clone()).collect();
-    let before: Vec<Vector3<f64>> = frames
-        .iter()
-        .map(|&t| hand.wrists[t].translation.vector)
-        .collect();
+    let before: Vec<Vector3<f64>> = hand.wrists.iter().map(|w| w.translation.vector).collect();
     let mut converged = false;
     for sweep in 1..=params.max_sweeps.max(1) {
         stats.sweeps = sweep;
@@ -214,17 +211,18 @@ fn ball_pass(
     // The ball is not asked of the contact segment's frames, so it phases in from them:
     // `k` frames from the segment a wrist gets `min(1, k/(W + 1))` of its push.
     let w = params.blend_frames as f64 + 1.0;
-    let contact_frames = [spans[0].end, spans[1].start.saturating_sub(1)];
-    for (&t, p0) in frames.iter().zip(&before) {
-        let contact = if t < contact_frames[0] {
-            contact_frames[0]
-        } else {
-            contact_frames[1]
-        };
-        let share = (t.abs_diff(contact) as f64 / w).min(1.0);
-        let v = &mut hand.wrists[t].translation.vector;
-        *v = p0 + (*v - p0) * share;
+    for (span, &contact) in spans.iter().zip(&contact_frames(spans)) {
+        for t in span.clone() {
+            let share = (t.abs_diff(contact) as f64 / w).min(1.0);
+            let v = &mut hand.wrists[t].translation.vector;
+            *v = before[t] + (*v - before[t]) * share;
+        }
     }
+}
+
+/// The contact frame each span meets: the approach the segment's first, the retreat its last.
+fn contact_frames(spans: &[std::ops::Range<usize>; 2]) -> [usize; 2] {
+    [spans[0].end, spans[1].start.saturating_sub(1)]
 }
 
 /// The share of frame `s`'s push asked of frame `t`: 1 at `s`, falling linearly to 0 at
@@ -254,9 +252,6 @@ fn link_pass(
 ) {
     let links = LinkClearance::new(robot, barriers.shapes, params.link_clearance_m);
     let w = params.blend_frames;
-    // The contact frame each span meets: the approach the segment's first, the retreat its
-    // last.
-    let contact_frames = [spans[0].end, spans[1].start.saturating_sub(1)];
     let mut poses = robot.new_link_poses();
     let mut push = vec![Vector3::zeros(); hand.len()];
     let mut moved = vec![false; hand.len()];
@@ -276,7 +271,7 @@ fn link_pass(
             break;
         }
         stats.link_sweeps = sweep;
-        for (span, &contact) in spans.iter().zip(&contact_frames) {
+        for (span, &contact) in spans.iter().zip(&contact_frames(spans)) {
             for t in span.clone() {
                 // The largest ask of the frames within `w` on this side of the contact segment.
                 let lo = t.saturating_sub(w).max(span.start);

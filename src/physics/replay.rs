@@ -34,10 +34,11 @@
 //!   there. Stepping it on adds what the engine does to an untouched object: Rapier has no
 //!   rolling resistance, and the apple alone on a table (its 40-gon hull resting on a flat
 //!   face) rocks at 1-2 rad/s and turns 17° in 3.5 s, the whole approach of its
-//!   demonstration, which the hand then holds as tracking error. A settled object is not held: holding the frying pan from frame 0, so
-//!   that its contacts with the stove formed only as the hand came, or right after it
-//!   settled, cost 11 and 30 of 181 passing frying-pan variations (`augment`, N = 200,
-//!   seed 1: grasps at the slip limit); stepping it until the grasp keeps all 181.
+//!   demonstration, which the hand then holds as tracking error. A settled object is not
+//!   held: holding the frying pan from frame 0, so that its contacts with the stove formed
+//!   only as the hand came, or right after it settled, cost 11 and 30 of 181 passing
+//!   frying-pan variations (`augment`, N = 200, seed 1: grasps at the slip limit; the
+//!   demonstrations of then); stepping it until the grasp keeps all 181.
 //! - **Drop**: once the simulated object is more than the drop limit off its plan inside the
 //!   contact segment, the drop is decided (its frame is the first such frame, see
 //!   `checks::find_drop`); the replay goes on for the drop window (whether the hand lost

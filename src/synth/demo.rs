@@ -221,11 +221,10 @@ pub fn synthesize(
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
     let shape = object_shape(&mesh, mesh_path)
         .ok_or_else(|| fail("(object)", format!("object '{object}' has no triangles")))?;
-    // The replay that picks a grasp sees the mesh as the demonstration's file will reference
-    // it: at the edge of a hold, what the OBJ text rounds away (micrometres, single
-    // precision) decides a verdict. The Ability hand's every-finger cube passed with the mesh
-    // in memory and turned 23.4° on average, past the 15° limit, in `validate` of the
-    // written files.
+    // The replay that picks a grasp sees the mesh as its file will hold it: the OBJ text's
+    // rounding (micrometres, single precision) decides verdicts at the edge (the Ability
+    // cube: a pass here, 23.4° in `validate`). The grasp solve and hold test keep the mesh in
+    // memory; moving them to this one moves every committed demonstration's grasp.
     let written_mesh = mesh.as_written()?;
 
     // Rest pose on the support, and the support as a barrier of the grasp IK.

@@ -143,7 +143,9 @@ pub struct Params {
     /// small decrease is also what a step shortened by raised damping gives, right after
     /// rejected trials, in a valley the next steps follow: with 1, 85 consecutive frames of
     /// mug_pass_in_sink at 10 mm stopped after 8 iterations each at a D_C of 13 mm that 10-50
-    /// iterations bring under the threshold (and 767 iterations in all against 179 with 3).
+    /// iterations bring under the threshold (767 iterations in all against 179 with 3, on the
+    /// demonstrations of 5a49336; on today's, stage 4 alone leaves 54 frames short of the
+    /// threshold with 1 and 8 with 3: `one_small_decrease_does_not_end_a_frame`).
     pub stall_steps: usize,
     /// Grasp synthesis only: weight of the surface-point penetration term
     /// `Σ_{p ∈ P(θ)} (min(0, SDF(p, object))/m)²` on the links' surface points against the
