@@ -155,7 +155,7 @@ fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
                     reasons.extend(p.reasons.iter().map(|r| format!("physics: {r}")));
                 }
                 if c.require_robust && p.verdict == "pass" {
-                    match p.measures.get("margin").filter(|m| !m.is_null()) {
+                    match p.margin() {
                         None => reasons.push(
                             "no robustness margin in the report; write it with --margin".into(),
                         ),

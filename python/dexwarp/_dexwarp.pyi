@@ -202,7 +202,9 @@ def augment(
     shard: Optional[str] = None,
     force: bool = False,
     compare_baseline: bool = False,
+    margin: bool = False,
 ) -> dict[str, Any]:
     """``dexwarp augment``: N sampled variations run with physics into out/; stats.json.
     ``compare_baseline`` also runs each sample with the SE(3) baseline hand
-    (``stats["baseline"]``: its yield and the paired counts)."""
+    (``stats["baseline"]``: its yield and the paired counts); ``margin`` also measures the
+    robustness margin of every sample that passes physics (``stats["robust"]``)."""

@@ -230,9 +230,10 @@ pub fn validate<'py>(
 /// spec `variations` (`dexwarp.variations/1`), runs each with physics into `out/kept/` and
 /// `out/failed/` and returns `stats.json` as a dict. `shard` is "K/N"; `jobs` 0 means one
 /// worker per core. `compare_baseline` also runs every sample with the SE(3) baseline hand
-/// (`stats["baseline"]`: its yield and the paired counts).
+/// (`stats["baseline"]`: its yield and the paired counts); `margin` also measures the
+/// robustness margin of every sample that passes physics (`stats["robust"]`).
 #[pyfunction]
-#[pyo3(signature = (demo, variations, *, count, out, seed=0, jobs=0, shard=None, force=false, compare_baseline=false))]
+#[pyo3(signature = (demo, variations, *, count, out, seed=0, jobs=0, shard=None, force=false, compare_baseline=false, margin=false))]
 pub fn augment<'py>(
     py: Python<'py>,
     demo: PathBuf,
@@ -244,6 +245,7 @@ pub fn augment<'py>(
     shard: Option<&str>,
     force: bool,
     compare_baseline: bool,
+    margin: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let shard = shard
         .map(|s| {
@@ -261,6 +263,7 @@ pub fn augment<'py>(
         shard,
         force,
         compare_baseline,
+        margin,
         limits: Limits::default(),
         progress: false,
     };

@@ -126,6 +126,15 @@ pub(crate) fn histogram(title: &str, x_label: &str, counted: &str, values: &[f64
     svg
 }
 
+/// A hand's status for the samples table, `kept, robust` when its margin holds under every
+/// condition.
+fn with_robust(status: &str, robust: Option<bool>) -> String {
+    match (status, robust) {
+        ("kept", Some(true)) => "kept, robust".into(),
+        _ => escape(status),
+    }
+}
+
 fn num(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".into(), |x| format!("{x:.digits$}"))
 }
@@ -144,6 +153,18 @@ fn baseline_section(b: &BaselineStats) -> String {
         p.only_baseline,
         p.neither
     );
+    if let (Some(r), Some(p)) = (&b.robust, &b.paired_robust) {
+        h.push_str(&format!(
+            "<p class=\"note\">robust: kept, and the robustness margin holds under every condition (friction ×0.75 and ×0.5, mass ×1.5)</p>\n<table><tr><th>baseline: robust</th><th>yield</th><th>of its kept</th><th>both robust</th><th>only contact IK</th><th>only baseline</th><th>neither</th></tr>\n<tr><td>{}</td><td>{:.1} %</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
+            r.kept,
+            r.yield_ * 100.0,
+            r.share_of_kept * 100.0,
+            p.both,
+            p.only_contact_ik,
+            p.only_baseline,
+            p.neither
+        ));
+    }
     h.push_str("<table><tr><th>same samples [mm]</th><th>n</th><th>contact IK median</th><th>p90</th><th>baseline median</th><th>p90</th></tr>\n");
     for (what, pair) in [
         ("D_C, whole contact segment", &b.d_c_mm),
@@ -215,6 +236,15 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
         num(stats.original_d_c_mm, 2),
         num(stats.kept.get("d_c_mm").and_then(|s| s.median), 2),
     ));
+    if let Some(r) = &stats.robust {
+        body.push_str(&format!(
+            "<p>robust (kept, and the robustness margin holds under every condition): {} of the {} kept ({:.1} %), yield {:.1} %</p>\n",
+            r.kept,
+            stats.passed,
+            r.share_of_kept * 100.0,
+            r.yield_ * 100.0
+        ));
+    }
     if let Some(b) = &stats.baseline {
         body.push_str(&baseline_section(b));
     }
@@ -272,7 +302,7 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
             "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{files}</td><td class=\"why\">{}</td></tr>\n",
             escape(&r.id),
             escape(&r.status),
-            escape(&r.status),
+            with_robust(&r.status, r.robust),
             r.waypoints,
             r.barriers,
             r.threshold_mm,
@@ -282,7 +312,7 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
             num(r.timewarp_discrepancy, 3),
             num(r.stretch_max, 2),
             escape(&r.baseline_status),
-            escape(&r.baseline_status),
+            with_robust(&r.baseline_status, r.baseline_robust),
             num(r.baseline_d_c_mm, 2),
             escape(&r.detail)
         ));

@@ -31,7 +31,7 @@ use crate::model::json::{read_json, write_atomic, write_json_atomic};
 use crate::model::report::{REPORT_FORMAT, Report};
 use crate::model::{Demo, WarpConfig};
 use crate::output::progress;
-use crate::pipeline::{self, HandMethod, Inputs, Loaded, Options};
+use crate::pipeline::{self, HandMethod, Inputs, Loaded, Options, PhysicsOptions};
 use crate::{Error, Limits, Result};
 
 /// The `format` value of `augment.json`.
@@ -62,6 +62,9 @@ pub struct AugmentOptions {
     pub force: bool,
     /// Also run every sample with the SE(3) baseline hand (see [`super::stats`]).
     pub compare_baseline: bool,
+    /// Also replay the robustness margin of every sample that passes physics, with each
+    /// hand run (`physics.margin` in its report, `robust` in the rows and stats).
+    pub margin: bool,
     pub limits: Limits,
     pub progress: bool,
 }
@@ -285,7 +288,13 @@ fn fill(row: &mut Row, report: &Report, spec: &Spec, dir: &Path, stretched: &[Ra
         row.d_c_stretched_mm = mean_d_c_over(&dir.join("frames.csv"), stretched);
         row.grasp_slide_mm = m.grasp_slide_mm.as_ref().map(|p| p.warped);
         row.grasp_shift_mm = m.grasp_shift_mm;
+        row.robust = robust(report);
     }
+}
+
+/// Whether the report's robustness margin holds under every condition; `None` without one.
+fn robust(report: &Report) -> Option<bool> {
+    report.physics.as_ref().and_then(|p| p.robust())
 }
 
 fn fill_baseline(
@@ -303,6 +312,7 @@ fn fill_baseline(
         row.baseline_d_c_stretched_mm = mean_d_c_over(&dir.join(BASELINE_FRAMES), stretched);
         row.baseline_grasp_slide_mm = report.metrics.grasp_slide_mm.as_ref().map(|p| p.warped);
         row.baseline_grasp_shift_mm = report.metrics.grasp_shift_mm;
+        row.baseline_robust = robust(report);
     }
 }
 
@@ -348,9 +358,17 @@ fn run_sample(
             let Some(report) = read_report(&dir.join("report.json")) else {
                 continue;
             };
-            // A sample finished without the baseline runs again when the comparison is asked.
+            // A sample finished without the baseline, or without a margin, runs again when
+            // the comparison or the margin is asked.
             let baseline = read_report(&dir.join(BASELINE_REPORT));
             if o.compare_baseline && baseline.is_none() {
+                continue;
+            }
+            let lacks_margin =
+                |r: &Report| o.margin && r.physics.as_ref().is_some_and(|p| p.margin().is_none());
+            if lacks_margin(&report)
+                || (o.compare_baseline && baseline.as_ref().is_some_and(lacks_margin))
+            {
                 continue;
             }
             fill(&mut row, &report, spec, dir, &stretched);
@@ -479,7 +497,12 @@ fn prepare(
 }
 
 fn sample_options(o: &AugmentOptions, hand: HandMethod) -> Options {
-    Options::new(hand).limits(o.limits)
+    Options::new(hand)
+        .limits(o.limits)
+        .physics(Some(PhysicsOptions {
+            margin: o.margin,
+            ..PhysicsOptions::default()
+        }))
 }
 
 /// A report carrying the error of a hand run (`hand`), also written to `stage/file`.

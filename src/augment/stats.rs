@@ -80,6 +80,13 @@ pub struct Row {
     pub grasp_shift_mm: Option<f64>,
     #[serde(default)]
     pub baseline_grasp_shift_mm: Option<f64>,
+    /// With `--margin`: whether the sample's physics holds under every condition of the
+    /// robustness margin (lower friction, heavier object; `false` when the nominal replay
+    /// fails; empty without a margin).
+    #[serde(default)]
+    pub robust: Option<bool>,
+    #[serde(default)]
+    pub baseline_robust: Option<bool>,
 }
 
 /// A segment whose duration factor is at least this is *stretched*: its D_C is reported
@@ -290,6 +297,9 @@ pub struct Stats {
     pub kept: BTreeMap<String, Summary>,
     /// The kept samples' median D_C is at most the demonstration's.
     pub kept_median_d_c_no_worse: Option<bool>,
+    /// With `--margin`: the kept samples whose margin holds under every condition.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robust: Option<Robust>,
     /// With `--compare-baseline`: the SE(3) baseline hand on the same samples.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub baseline: Option<BaselineStats>,
@@ -326,6 +336,72 @@ pub struct BaselineStats {
     /// Each hand's failures over the same samples, by [`Cause`].
     #[serde(default)]
     pub failed_by_cause: CausePair,
+    /// With `--margin`: the baseline's robust samples, and the pairing of robust samples
+    /// (a sample counts for a hand when that hand keeps it and its margin holds under every
+    /// condition).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robust: Option<Robust>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paired_robust: Option<Paired>,
+}
+
+/// Kept samples whose robustness margin holds under every condition (`--margin`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Robust {
+    /// Kept and robust.
+    pub kept: u64,
+    /// `kept / attempts`.
+    #[serde(rename = "yield")]
+    pub yield_: f64,
+    /// Share of the kept samples that are robust.
+    pub share_of_kept: f64,
+}
+
+impl Robust {
+    /// The robust samples of one hand: `status` and `robust` of each row; `None` when no row
+    /// has a margin.
+    fn of<'a>(
+        rows: &'a [Row],
+        hand: impl Fn(&'a Row) -> (&'a str, Option<bool>),
+    ) -> Option<Robust> {
+        if rows.iter().all(|r| hand(r).1.is_none()) {
+            return None;
+        }
+        let kept = rows.iter().filter(|r| hand(r).0 == "kept").count() as u64;
+        let robust = rows.iter().filter(|r| is_robust(hand(r))).count() as u64;
+        Some(Robust {
+            kept: robust,
+            yield_: ratio(robust, rows.len() as u64),
+            share_of_kept: ratio(robust, kept),
+        })
+    }
+}
+
+/// Kept, with a margin that holds under every condition.
+fn is_robust((status, robust): (&str, Option<bool>)) -> bool {
+    status == "kept" && robust == Some(true)
+}
+
+/// Contact IK's status and robustness of a row.
+fn contact_hand(r: &Row) -> (&str, Option<bool>) {
+    (&r.status, r.robust)
+}
+
+/// The baseline's status and robustness of a row.
+fn baseline_hand(r: &Row) -> (&str, Option<bool>) {
+    (&r.baseline_status, r.baseline_robust)
+}
+
+impl Paired {
+    /// Adds one sample where contact IK's and the baseline's outcomes are `contact`, `base`.
+    fn add(&mut self, contact: bool, base: bool) {
+        *match (contact, base) {
+            (true, true) => &mut self.both,
+            (true, false) => &mut self.only_contact_ik,
+            (false, true) => &mut self.only_baseline,
+            (false, false) => &mut self.neither,
+        } += 1;
+    }
 }
 
 /// Why a sample failed, in one word: the first of these its reason keys name. Unlike the
@@ -466,13 +542,15 @@ impl BaselineStats {
             if !contact {
                 b.failed_by_cause.contact_ik.add(Cause::of(&r.reasons));
             }
-            let p = &mut b.paired;
-            *match (contact, base) {
-                (true, true) => &mut p.both,
-                (true, false) => &mut p.only_contact_ik,
-                (false, true) => &mut p.only_baseline,
-                (false, false) => &mut p.neither,
-            } += 1;
+            b.paired.add(contact, base);
+        }
+        b.robust = Robust::of(rows, baseline_hand);
+        if b.robust.is_some() {
+            let mut p = Paired::default();
+            for r in &ran {
+                p.add(is_robust(contact_hand(r)), is_robust(baseline_hand(r)));
+            }
+            b.paired_robust = Some(p);
         }
         b.yield_ = ratio(b.passed, rows.len() as u64);
         b.pass_rate = ratio(b.passed, b.ran);
@@ -570,6 +648,7 @@ impl Stats {
             (Some(m), Some(o)) => Some(m <= o),
             _ => None,
         };
+        s.robust = Robust::of(rows, contact_hand);
         s.baseline = BaselineStats::of(rows);
         s
     }

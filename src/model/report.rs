@@ -216,6 +216,18 @@ pub struct PhysicsSummary {
     pub measures: BTreeMap<String, serde_json::Value>,
 }
 
+impl PhysicsSummary {
+    /// The robustness margin (`physics.margin`), when it was measured.
+    pub fn margin(&self) -> Option<&serde_json::Value> {
+        self.measures.get("margin").filter(|m| !m.is_null())
+    }
+
+    /// Whether the margin holds under every condition; `None` without a margin.
+    pub fn robust(&self) -> Option<bool> {
+        self.margin()?.get("robust")?.as_bool()
+    }
+}
+
 /// A report on one output trajectory.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Report {

@@ -60,10 +60,7 @@ fn label(it: &Item) -> String {
 /// The robustness margin's sentence (`warp --margin`), `robust` when every condition
 /// holds, `-` when the report has none.
 fn margin(r: Option<&crate::model::report::Report>) -> String {
-    let m = r
-        .and_then(|r| r.physics.as_ref())
-        .and_then(|p| p.measures.get("margin"))
-        .filter(|m| !m.is_null());
+    let m = r.and_then(|r| r.physics.as_ref()).and_then(|p| p.margin());
     match m {
         None => "-".into(),
         Some(m) => {

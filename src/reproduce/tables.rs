@@ -412,9 +412,7 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
 /// The weakest condition a pass holds under (`μ 0.75 at 1.5x`, `robust` when it holds under
 /// all of them), for a table cell; `--` without a pass or a margin.
 fn margin(r: Option<&Report>) -> String {
-    let m = r
-        .and_then(|r| r.physics.as_ref())
-        .and_then(|p| p.measures.get("margin"));
+    let m = r.and_then(|r| r.physics.as_ref()).and_then(|p| p.margin());
     let robust = m.and_then(|m| m.get("robust")).and_then(|v| v.as_bool());
     let weakest = m
         .and_then(|m| m.get("weakest"))

@@ -490,7 +490,8 @@ fn augment_runs_end_to_end_reruns_identically_and_shards_agree() {
 
 /// `--compare-baseline`: every sample that ran also runs with the baseline hand, its files
 /// beside the sample's (not taken for outputs by other commands), its verdict and D_C in the
-/// rows, the paired counts in stats.json; a sample finished without it runs again.
+/// rows, the paired counts in stats.json; a sample finished without it runs again, and so
+/// does one finished without a margin when `--margin` is asked.
 #[test]
 fn compare_baseline_pairs_both_hands_sample_by_sample() {
     let tmp = tempfile::tempdir().unwrap();
@@ -663,6 +664,81 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
     assert!(
         stderr(&o).contains(&format!("of {ran}")),
         "filter sees {ran} reports: {}",
+        stderr(&o)
+    );
+
+    // `--margin`: the finished samples run again with each hand's margin; `robust` per
+    // sample agrees with its reports, and the robust counts with the rows.
+    let mut with_margin = args(true);
+    with_margin.push("--margin".into());
+    let said = run(with_margin.clone());
+    assert!(
+        said.contains("2 run now")
+            && said.contains("robust (the margin holds")
+            && said.contains("paired robust: both"),
+        "{said}"
+    );
+    let mut rows = csv::Reader::from_path(out.join("samples.csv")).unwrap();
+    let headers = rows.headers().unwrap().clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).unwrap();
+    let (mut robust, mut baseline_robust) = (0, 0);
+    for r in rows.records() {
+        let r = r.unwrap();
+        let dir = out.join(&r[col("status")]).join(&r[col("id")]);
+        for (file, status, flag, count) in [
+            ("report.json", "status", "robust", &mut robust),
+            (
+                "baseline.report.json",
+                "baseline_status",
+                "baseline_robust",
+                &mut baseline_robust,
+            ),
+        ] {
+            let report: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(dir.join(file)).unwrap()).unwrap();
+            let margin = &report["physics"]["margin"];
+            assert!(margin["conditions"].is_array(), "{file}: {margin}");
+            let want = margin["robust"].as_bool().unwrap();
+            assert_eq!(&r[col(flag)], want.to_string(), "{file}");
+            if want {
+                assert_eq!(&r[col(status)], "kept", "a robust sample passed physics");
+                *count += 1;
+            }
+        }
+    }
+    let s = stats(&out);
+    assert_eq!(s["robust"]["kept"].as_u64(), Some(robust), "{s}");
+    let b = &s["baseline"];
+    assert_eq!(b["robust"]["kept"].as_u64(), Some(baseline_robust), "{b}");
+    let p = &b["paired_robust"];
+    assert_eq!(
+        p["both"].as_u64().unwrap() + p["only_contact_ik"].as_u64().unwrap(),
+        robust
+    );
+    let sum: u64 = ["both", "only_contact_ik", "only_baseline", "neither"]
+        .iter()
+        .map(|k| p[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(sum, ran);
+    assert!(
+        std::fs::read_to_string(out.join("index.html"))
+            .unwrap()
+            .contains("baseline: robust")
+    );
+    let said = run(with_margin);
+    assert!(said.contains("0 run now"), "{said}");
+    // `filter --robust` keeps exactly the robust samples.
+    let o = dexwarp(&[
+        "filter",
+        out.to_str().unwrap(),
+        "--out",
+        keep.to_str().unwrap(),
+        "--robust",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("kept {robust} of {ran}")),
+        "{}",
         stderr(&o)
     );
 }

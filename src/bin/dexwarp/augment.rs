@@ -38,6 +38,11 @@ pub struct AugmentArgs {
     /// paired counts in stats.json and index.html (about twice the time).
     #[arg(long)]
     compare_baseline: bool,
+    /// Also measure the robustness margin of every sample that passes physics (with each
+    /// hand): five more replays with less friction and more mass; `robust` per sample in
+    /// samples.csv, the robust yield in stats.json (`filter --robust` keeps those samples).
+    #[arg(long)]
+    margin: bool,
     /// Combine the shard files found in these folders into DIR (--out).
     #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with_all = ["demo", "variations", "count", "shard"])]
     merge: Vec<PathBuf>,
@@ -53,6 +58,7 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
         workers,
         sharding: Sharding { shard, force },
         compare_baseline,
+        margin,
         merge,
     } = args;
     let aug = if merge.is_empty() {
@@ -69,6 +75,7 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
             shard,
             force,
             compare_baseline,
+            margin,
             limits,
             progress: true,
         })?
@@ -95,6 +102,14 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
         s.timing.samples_per_hour,
         out.join(file).display()
     );
+    if let Some(r) = &s.robust {
+        eprintln!(
+            "robust (the margin holds under every condition): {} of the {} kept (yield {:.1} %)",
+            r.kept,
+            s.passed,
+            r.yield_ * 100.0
+        );
+    }
     if let Some(b) = &s.baseline {
         let p = &b.paired;
         eprintln!(
@@ -115,6 +130,18 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
             c.contact_ik.pushed_after_release,
             c.baseline.pushed_after_release
         );
+        if let (Some(r), Some(p)) = (&b.robust, &b.paired_robust) {
+            eprintln!(
+                "baseline robust: {} of its {} kept (yield {:.1} %); paired robust: both {}, only contact IK {}, only baseline {}, neither {}",
+                r.kept,
+                b.passed,
+                r.yield_ * 100.0,
+                p.both,
+                p.only_contact_ik,
+                p.only_baseline,
+                p.neither
+            );
+        }
     }
     Ok(())
 }
