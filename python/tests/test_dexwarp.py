@@ -234,4 +234,4 @@ def test_augment_returns_the_stats_it_writes(tmp_path):
     assert stats == json.loads((out / "stats.json").read_text())
     with pytest.raises(dexwarp.DexwarpError, match="shard"):
         dexwarp.augment("scenes/demos/cube.demo.json", "scenes/variations/cube.json",
-                        count=2, out=tmp_path / "x", shard="3/2")
+                        count=2, out=tmp_path / "x", shard="3/2", margin=True)

@@ -40,7 +40,8 @@ pub struct AugmentArgs {
     compare_baseline: bool,
     /// Also measure the robustness margin of every sample that passes physics (with each
     /// hand): five more replays with less friction and more mass; `robust` per sample in
-    /// samples.csv, the robust yield in stats.json (`filter --robust` keeps those samples).
+    /// samples.csv, the robust yield in stats.json (`filter --robust` keeps those samples;
+    /// about 4x the time of a plain run).
     #[arg(long)]
     margin: bool,
     /// Combine the shard files found in these folders into DIR (--out).
