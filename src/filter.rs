@@ -155,18 +155,7 @@ fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
                     reasons.extend(p.reasons.iter().map(|r| format!("physics: {r}")));
                 }
                 if c.require_robust && p.verdict == "pass" {
-                    match p.margin() {
-                        None => reasons.push(
-                            "no robustness margin in the report; write it with --margin".into(),
-                        ),
-                        Some(m) if m.get("robust") != Some(&serde_json::Value::Bool(true)) => {
-                            reasons.push(format!(
-                                "not robust: {}",
-                                m.get("sentence").and_then(|s| s.as_str()).unwrap_or("?")
-                            ))
-                        }
-                        Some(_) => {}
-                    }
+                    reasons.extend(p.not_robust_because());
                 }
             }
             None if c.require_physics_pass || c.require_robust => {

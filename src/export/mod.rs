@@ -43,6 +43,9 @@ pub struct ExportOptions {
     pub out: PathBuf,
     /// Keep only trajectories whose physics verdict is `pass` (and that have a report).
     pub only_passing: bool,
+    /// Keep only passing trajectories whose robustness margin holds under every condition
+    /// (`physics.robust`; runs made with `--margin`).
+    pub only_robust: bool,
     /// Frame rate of the dataset [Hz]; must divide the trajectories' own rate (every k-th
     /// frame is kept). `None`: the trajectories' rate, which must be a whole number.
     pub fps: Option<u32>,
@@ -62,6 +65,7 @@ impl ExportOptions {
             inputs,
             out,
             only_passing: false,
+            only_robust: false,
             fps: None,
             robot: None,
             data_file_mb: lerobot::DEFAULT_DATA_FILE_MB,
@@ -334,7 +338,7 @@ pub fn collect(options: &ExportOptions, limits: &Limits) -> Result<Collected> {
             &options.inputs[0],
             "(input)",
             format!(
-                "no trajectory to export ({} skipped{}); check --only-passing and --robot",
+                "no trajectory to export ({} skipped{}); check --only-passing, --only-robust and --robot",
                 skipped.len(),
                 skipped
                     .first()
@@ -421,8 +425,15 @@ fn load_one(
         if let Some(e) = &report.error {
             return Err(LoadError::Skip(format!("the run failed: {e}")));
         }
-        if options.only_passing && report.physics.as_ref().is_none_or(|p| p.verdict != "pass") {
+        let passed = report.physics.as_ref().filter(|p| p.verdict == "pass");
+        if (options.only_passing || options.only_robust) && passed.is_none() {
             return Err(LoadError::Skip("physics verdict is not pass".into()));
+        }
+        if let Some(why) = passed
+            .filter(|_| options.only_robust)
+            .and_then(|p| p.not_robust_because())
+        {
+            return Err(LoadError::Skip(why));
         }
         // The set's other files must match the report (the demonstration is checked below
         // from the bytes read once).
@@ -434,7 +445,7 @@ fn load_one(
         crate::output::set_is_complete(path, &rest).map_err(LoadError::Skip)?;
         let rel = relative_to_inputs(path, &options.inputs);
         quality = Some(quality_of(&report, &rel));
-    } else if options.only_passing {
+    } else if options.only_passing || options.only_robust {
         return Err(LoadError::Skip("no report, so no physics pass".into()));
     }
     if !f.demo.is_file() {

@@ -226,6 +226,19 @@ impl PhysicsSummary {
     pub fn robust(&self) -> Option<bool> {
         self.margin()?.get("robust")?.as_bool()
     }
+
+    /// Why a passing verdict is not robust, in words (no margin measured, or the margin's
+    /// sentence); `None` when it is.
+    pub fn not_robust_because(&self) -> Option<String> {
+        match (self.margin(), self.robust()) {
+            (_, Some(true)) => None,
+            (None, _) => Some("no robustness margin in the report; write it with --margin".into()),
+            (Some(m), _) => Some(format!(
+                "not robust: {}",
+                m.get("sentence").and_then(|s| s.as_str()).unwrap_or("?")
+            )),
+        }
+    }
 }
 
 /// A report on one output trajectory.

@@ -247,6 +247,58 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
             serde_json::from_slice(&std::fs::read(out2.join("meta/info.json")).unwrap()).unwrap();
         assert_eq!(info["total_episodes"], passing);
     }
+    // --only-robust: these reports have no margin, so nothing is exported and the skip says
+    // why; a run with --margin is exported exactly when its margin holds.
+    let out3 = dir.path().join("robust");
+    let robust_only = |input: &Path| {
+        dexwarp(&[
+            "export",
+            s(input),
+            "--format",
+            "lerobot",
+            "--only-robust",
+            "--out",
+            s(&out3),
+        ])
+    };
+    let o = robust_only(&runs);
+    assert!(
+        !o.status.success() && stderr(&o).contains("no trajectory"),
+        "{}",
+        stderr(&o)
+    );
+    if passing > 0 {
+        assert!(
+            stderr(&o).contains("write it with --margin"),
+            "{}",
+            stderr(&o)
+        );
+    }
+    let margin_runs = dir.path().join("margin_runs");
+    // The built-in gripper pick and place holds under every condition of the margin.
+    let config = repo("scenes/configs/gripper_box_waypoints.json");
+    let o = dexwarp(&[
+        "warp",
+        "--config",
+        s(&config),
+        "--out",
+        s(&margin_runs.join("c")),
+        "--margin",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: Value =
+        serde_json::from_slice(&std::fs::read(margin_runs.join("c").join("report.json")).unwrap())
+            .unwrap();
+    let robust = report["physics"]["robust"].as_bool().expect("a margin");
+    let o = robust_only(&margin_runs);
+    assert_eq!(o.status.success(), robust, "{}", stderr(&o));
+    if robust {
+        let info: Value =
+            serde_json::from_slice(&std::fs::read(out3.join("meta/info.json")).unwrap()).unwrap();
+        assert_eq!(info["total_episodes"], 1);
+    } else {
+        assert!(stderr(&o).contains("not robust: "), "{}", stderr(&o));
+    }
     let o = dexwarp(&["export", s(&runs), "--format", "lerobot", "--out", s(&out)]);
     assert!(
         !o.status.success() && stderr(&o).contains("--force"),

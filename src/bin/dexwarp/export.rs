@@ -33,6 +33,10 @@ pub struct ExportArgs {
     /// Only trajectories whose physics verdict is pass.
     #[arg(long)]
     only_passing: bool,
+    /// Only passing trajectories whose robustness margin holds under every condition
+    /// (reports written with --margin: warp, validate, augment).
+    #[arg(long)]
+    only_robust: bool,
     /// Frame rate of the dataset [Hz]; must divide the trajectories' rate (every k-th frame is kept).
     #[arg(long, value_name = "F")]
     fps: Option<u32>,
@@ -53,6 +57,7 @@ pub fn run(args: ExportArgs, limits: Limits) -> Result<()> {
         format,
         out,
         only_passing,
+        only_robust,
         fps,
         robot,
         data_file_mb,
@@ -60,6 +65,7 @@ pub fn run(args: ExportArgs, limits: Limits) -> Result<()> {
     } = args;
     let mut options = dexwarp::export::ExportOptions::new(inputs, out.clone());
     options.only_passing = only_passing;
+    options.only_robust = only_robust;
     options.fps = fps;
     options.robot = robot;
     options.data_file_mb = data_file_mb.max(1);
