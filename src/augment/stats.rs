@@ -14,6 +14,11 @@
 //! columns of the row, and `stats.json` gains a `baseline` object: its yield, reasons and
 //! the paired counts (both pass, only contact IK, only the baseline, neither).
 //!
+//! With `--margin` every sample that passes physics also replays the robustness margin
+//! ([`crate::physics::margin`]); a kept sample is **robust** when the margin holds under every
+//! condition. The rows say it per hand, and `stats.json` gains `robust` (and, with the
+//! comparison, `baseline.robust` and `baseline.paired_robust`, the pairing of robust samples).
+//!
 //! `stats.json` is a function of the rows alone, apart from its `timing` object (wall time,
 //! throughput, time per stage, samples skipped because they were already finished): two runs
 //! of the same spec, demonstration and seed give the same bytes outside `timing`.
