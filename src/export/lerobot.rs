@@ -457,6 +457,14 @@ fn episodes_batch(
         )),
     );
     push(
+        "quality/robust",
+        DataType::Boolean,
+        true,
+        Arc::new(BooleanArray::from_iter(
+            eps.iter().map(|e| e.quality.robust),
+        )),
+    );
+    push(
         "quality/failure_reasons",
         str_list,
         false,
@@ -516,7 +524,8 @@ pub enum Column {
     Floats(Vec<Option<f64>>),
     /// int32 or int64 scalars.
     Ints(Vec<i64>),
-    Bools(Vec<bool>),
+    /// Booleans; `None` for nulls.
+    Bools(Vec<Option<bool>>),
     /// Strings; `None` for nulls.
     Strings(Vec<Option<String>>),
     /// Lists of strings.
@@ -596,9 +605,7 @@ fn read_column(a: &dyn Array) -> Option<Column> {
         ));
     }
     if let Some(b) = a.as_boolean_opt() {
-        return Some(Column::Bools(
-            b.iter().map(|v| v.unwrap_or(false)).collect(),
-        ));
+        return Some(Column::Bools(b.iter().collect()));
     }
     if let Some(s) = strings(a) {
         return Some(Column::Strings(s));

@@ -94,6 +94,9 @@ pub struct Quality {
     pub verdict: String,
     /// Every failed physics check, in words.
     pub failure_reasons: Vec<String>,
+    /// The robustness margin holds under every condition (`physics.robust`); `None` when the
+    /// report has no margin.
+    pub robust: Option<bool>,
     pub d_c_mm: Option<f64>,
     pub d_c_original_mm: Option<f64>,
     pub d_wo_mm: Option<f64>,
@@ -215,6 +218,7 @@ pub fn quality_of(report: &Report, report_path: &str) -> Quality {
         name: report.name.clone(),
         verdict: phys.map_or("unknown".into(), |p| p.verdict.clone()),
         failure_reasons: phys.map(|p| p.reasons.clone()).unwrap_or_default(),
+        robust: phys.and_then(|p| p.robust()),
         d_c_mm: Some(m.d_c_mm.warped),
         d_c_original_mm: Some(m.d_c_mm.original),
         d_wo_mm: Some(m.d_wo_mm.warped),

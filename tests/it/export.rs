@@ -207,7 +207,11 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
         let Column::Bools(passed) = &eps.columns["quality/passed"] else {
             panic!("passed is not boolean");
         };
-        assert_eq!(passed[e], r["physics"]["verdict"] == "pass");
+        assert_eq!(passed[e], Some(r["physics"]["verdict"] == "pass"));
+        let Column::Bools(robust) = &eps.columns["quality/robust"] else {
+            panic!("robust is not boolean");
+        };
+        assert_eq!(robust[e], None, "no margin in these reports");
     }
     let tasks = lerobot::read_parquet(&out.join("meta/tasks.parquet")).unwrap();
     assert_eq!(tasks.rows, 1);
@@ -296,6 +300,11 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
         let info: Value =
             serde_json::from_slice(&std::fs::read(out3.join("meta/info.json")).unwrap()).unwrap();
         assert_eq!(info["total_episodes"], 1);
+        let ds = lerobot::read(&out3).unwrap();
+        let Column::Bools(flags) = &ds.episodes.columns["quality/robust"] else {
+            panic!("robust is not boolean");
+        };
+        assert_eq!(flags, &[Some(true)]);
     } else {
         assert!(stderr(&o).contains("not robust: "), "{}", stderr(&o));
     }
@@ -530,6 +539,7 @@ fn pyarrow_readback(out: &Path, demos: &[Demo], reports: &[Value]) {
             "length": demos.iter().map(|d| d.frames.len()).collect::<Vec<_>>(),
             "quality/verdict": col(&|r| r["physics"]["verdict"].clone()),
             "quality/passed": col(&|r| Value::Bool(r["physics"]["verdict"] == "pass")),
+            "quality/robust": col(&|_| Value::Null),
             "quality/failure_reasons": col(&|r| r["physics"]["reasons"].clone()),
             "quality/d_c_mm": col(&|r| r["metrics"]["d_c_mm"]["warped"].clone()),
             "quality/d_wo_mm": col(&|r| r["metrics"]["d_wo_mm"]["warped"].clone()),
