@@ -19,9 +19,11 @@
 //! `r/√3` at constant speed in between: a quarter of the frames at rest on each side puts it
 //! above 0.10, against the paper's 0.072-0.085 on the configs with no waypoints or few.
 //!
-//! Correspondence noise (σ per axis) is chosen so that each demo's
-//! `D_C` lands in the range of the paper's originals (4.6 to 8.5 mm; Table 3): cube 2.5 mm,
-//! frying pan 3.0 mm, mug 5.0 mm, teapot 3.5 mm; 2 mm for the robot hands.
+//! Correspondence noise (1 mm σ per axis per point, and the shared drifting offset of
+//! [`super::contacts`], `offset_mm` below) is chosen so that each human demo's `D_C` lands
+//! in the range of the paper's originals (4.6 to 8.5 mm; Table 3): cube 4.6 mm, frying pan
+//! 5.5 mm, mug 8.5 mm, teapot 6.4 mm; apple 3.6 mm and small box 2.5 mm for the robot hands
+//! (`reproduce`'s Table 3, "Init Cont.").
 
 use std::path::{Path, PathBuf};
 

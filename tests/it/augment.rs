@@ -488,6 +488,19 @@ fn augment_runs_end_to_end_reruns_identically_and_shards_agree() {
     assert!(stderr(&o).contains("missing"), "{}", stderr(&o));
 }
 
+/// A paired table (`both`, `only_contact_ik`, `only_baseline`, `neither`) covers the `ran`
+/// samples once each, and its margins are each hand's count.
+fn check_paired(p: &serde_json::Value, ran: u64, contact_ik: u64, baseline: u64) {
+    let n = |k: &str| p[k].as_u64().unwrap();
+    assert_eq!(
+        n("both") + n("only_contact_ik") + n("only_baseline") + n("neither"),
+        ran,
+        "{p}"
+    );
+    assert_eq!(n("both") + n("only_contact_ik"), contact_ik, "{p}");
+    assert_eq!(n("both") + n("only_baseline"), baseline, "{p}");
+}
+
 /// `--compare-baseline`: every sample that ran also runs with the baseline hand, its files
 /// beside the sample's (not taken for outputs by other commands), its verdict and D_C in the
 /// rows, the paired counts in stats.json; a sample finished without it runs again, and so
@@ -553,19 +566,11 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
     let ran = s["ran"].as_u64().unwrap();
     assert!(ran > 0, "{s}");
     assert_eq!(b["ran"].as_u64(), Some(ran));
-    let p = &b["paired"];
-    let sum: u64 = ["both", "only_contact_ik", "only_baseline", "neither"]
-        .iter()
-        .map(|k| p[k].as_u64().unwrap())
-        .sum();
-    assert_eq!(sum, ran);
-    assert_eq!(
-        p["both"].as_u64().unwrap() + p["only_contact_ik"].as_u64().unwrap(),
-        s["passed"].as_u64().unwrap()
-    );
-    assert_eq!(
-        p["both"].as_u64().unwrap() + p["only_baseline"].as_u64().unwrap(),
-        b["passed"].as_u64().unwrap()
+    check_paired(
+        &b["paired"],
+        ran,
+        s["passed"].as_u64().unwrap(),
+        b["passed"].as_u64().unwrap(),
     );
     // One cause per failure: each hand's causes add up to its failures on these samples.
     for (hand, failed) in [
@@ -710,16 +715,7 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
     assert_eq!(s["robust"]["kept"].as_u64(), Some(robust), "{s}");
     let b = &s["baseline"];
     assert_eq!(b["robust"]["kept"].as_u64(), Some(baseline_robust), "{b}");
-    let p = &b["paired_robust"];
-    assert_eq!(
-        p["both"].as_u64().unwrap() + p["only_contact_ik"].as_u64().unwrap(),
-        robust
-    );
-    let sum: u64 = ["both", "only_contact_ik", "only_baseline", "neither"]
-        .iter()
-        .map(|k| p[k].as_u64().unwrap())
-        .sum();
-    assert_eq!(sum, ran);
+    check_paired(&b["paired_robust"], ran, robust, baseline_robust);
     assert!(
         std::fs::read_to_string(out.join("index.html"))
             .unwrap()
