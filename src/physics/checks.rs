@@ -104,6 +104,7 @@ pub fn find_drop(
         },
         position_error_mm: position_error[frame] * 1e3,
         contact_lost_frame: lost,
+        touching_links: Vec::new(),
     })
 }
 
@@ -136,6 +137,7 @@ pub fn find_push(
         position_error_mm: error * 1e3,
         release_error_mm: at_release * 1e3,
         last_touch_frame,
+        touching_links: Vec::new(),
     })
 }
 
@@ -286,11 +288,40 @@ pub fn hand_touches(
 ) -> bool {
     let pose = to_pose(pose);
     let aabb = object.compound.compute_aabb(&pose).loosened(reach);
-    hand.iter().any(|h| {
-        h.aabb.intersects(&aabb)
-            && query::distance(&h.pose, h.shape, &pose, object.compound.as_ref())
-                .is_ok_and(|d| d.distance <= reach)
-    })
+    hand.iter()
+        .any(|h| shape_within(h, object, &pose, &aabb, reach))
+}
+
+/// The owners (link indices, with [`place_hand`]) of the placed hand shapes within `reach`
+/// [m] of the object at `pose`, each once, in increasing order.
+pub fn touching_links(
+    hand: &[Placed<'_>],
+    object: &ObjectShape,
+    pose: &Isometry3<f64>,
+    reach: f64,
+) -> Vec<usize> {
+    let pose = to_pose(pose);
+    let aabb = object.compound.compute_aabb(&pose).loosened(reach);
+    let mut links: Vec<usize> = hand
+        .iter()
+        .filter(|h| shape_within(h, object, &pose, &aabb, reach))
+        .map(|h| h.owner)
+        .collect();
+    links.sort_unstable();
+    links.dedup();
+    links
+}
+
+fn shape_within(
+    h: &Placed<'_>,
+    object: &ObjectShape,
+    pose: &Pose,
+    aabb: &Aabb,
+    reach: f64,
+) -> bool {
+    h.aabb.intersects(aabb)
+        && query::distance(&h.pose, h.shape, pose, object.compound.as_ref())
+            .is_ok_and(|d| d.distance <= reach)
 }
 
 /// Simulation displacement [m] at one frame (see the module docs).

@@ -314,7 +314,7 @@ pub use report::{
 use crate::geometry::Mesh;
 use crate::geometry::shape::CollisionShape;
 use crate::model::{ContactSegment, Demo, Role, Scene};
-use crate::robot::Robot;
+use crate::robot::{LinkId, Robot};
 use crate::{Error, Limits, Result};
 use checks::{PenetrationAcc, Placed};
 use world::{FixedItem, ReplayWorld, Tag};
@@ -656,16 +656,34 @@ fn check_replay(
             checks::hand_touches(&hand_placed, object, sim, touch_reach)
         })
         .collect();
-    let dropped = segment
+    // The links touching the simulated object at `frame`.
+    let mut links_at = |frame: usize| -> Vec<String> {
+        let (Some(f), Some(sim)) = (demo.frames.get(frame), trace.object.get(frame)) else {
+            return Vec::new();
+        };
+        robot.forward_kinematics(&f.wrist, &f.joints, &mut link_poses);
+        checks::place_hand(&shapes, &link_poses, &mut hand_placed);
+        checks::touching_links(&hand_placed, object, sim, touch_reach)
+            .into_iter()
+            .map(|l| robot.link(LinkId(l as u32)).name.clone())
+            .collect()
+    };
+    let mut dropped = segment
         .and_then(|s| checks::find_drop(s, &pos_err, &touching, drop_window(demo.fps), params));
+    if let Some(d) = dropped.as_mut().filter(|d| d.cause == DropCause::Slipped) {
+        d.touching_links = links_at(d.frame);
+    }
 
     let t_stab = Instant::now();
     let stability = segment.map(|s| stability(robot, demo, object, s, params));
     let stability_s = t_stab.elapsed().as_secs_f64();
 
-    let release = release(
+    let mut release = release(
         demo, object, supports, trace, segment, &pos_err, &touching, params,
     );
+    if let Some(p) = release.as_mut().and_then(|r| r.pushed.as_mut()) {
+        p.touching_links = links_at(p.last_touch_frame);
+    }
 
     let replayed = trace.grip.len();
     let grip = segment.filter(|s| s.start < replayed).map(|s| {

@@ -45,6 +45,10 @@ pub struct Drop {
     /// For [`DropCause::LostContact`]: first frame of the contact-less run that ends at
     /// `frame`.
     pub contact_lost_frame: Option<usize>,
+    /// For [`DropCause::Slipped`]: the hand's links touching the object at `frame` (within
+    /// the finger skin and the touch tolerance), in the robot's link order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub touching_links: Vec<String>,
 }
 
 /// Penetration depths of one pair type, measured with parry at the demonstration's poses.
@@ -161,6 +165,9 @@ pub struct Pushed {
     pub release_error_mm: f64,
     /// The last frame up to `frame` at which the hand touches the moved object.
     pub last_touch_frame: usize,
+    /// The hand's links touching the object at `last_touch_frame`, in the robot's link order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub touching_links: Vec<String>,
 }
 
 /// How the hand held the simulated object: its normal contact forces at the frame times of

@@ -22,10 +22,11 @@ pub(crate) fn reasons(report: &PhysicsReport, params: &Params) -> Vec<String> {
                 d.contact_lost_frame.unwrap_or(d.frame)
             ),
             DropCause::Slipped => format!(
-                "object slipped in the grasp at frame {}: position error {:.1} mm > {:.1} mm while the hand touches it",
+                "object slipped in the grasp at frame {}: position error {:.1} mm > {:.1} mm while the hand touches it{}",
                 d.frame,
                 d.position_error_mm,
-                params.drop_error_m * 1e3
+                params.drop_error_m * 1e3,
+                with_links(&d.touching_links)
             ),
         });
     }
@@ -65,6 +66,15 @@ pub(crate) fn reasons(report: &PhysicsReport, params: &Params) -> Vec<String> {
     out
 }
 
+/// ` (with a, b)` naming the links that touch, or nothing when none is known.
+fn with_links(links: &[String]) -> String {
+    if links.is_empty() {
+        String::new()
+    } else {
+        format!(" (with {})", links.join(", "))
+    }
+}
+
 fn penetration(out: &mut Vec<String>, what: &str, p: &Penetration) {
     if let Some(limit) = p.limit_mm
         && p.max_mm > limit
@@ -100,8 +110,10 @@ fn tracking(t: &Tracking, pushed: Option<(usize, &Pushed)>, params: &Params) -> 
         );
         out.push(match pushed.filter(|(_, p)| p.frame == frame) {
             Some((released, p)) => format!(
-                "object pushed after the release: position error {error:.1} mm at frame {frame} > {limit:.1} mm ({:.1} mm at the last contact frame {released}); the hand touches it up to frame {}",
-                p.release_error_mm, p.last_touch_frame
+                "object pushed after the release: position error {error:.1} mm at frame {frame} > {limit:.1} mm ({:.1} mm at the last contact frame {released}); the hand touches it up to frame {}{}",
+                p.release_error_mm,
+                p.last_touch_frame,
+                with_links(&p.touching_links)
             ),
             None => format!("object position error {error:.1} mm at frame {frame} > {limit:.1} mm"),
         });
@@ -173,6 +185,7 @@ mod tests {
                     position_error_mm: 166.7,
                     release_error_mm: 7.8,
                     last_touch_frame: 630,
+                    touching_links: vec!["index_middle".into(), "middle_middle".into()],
                 }),
                 ..Release::default()
             }),
@@ -182,7 +195,7 @@ mod tests {
         assert_eq!(r.len(), 2, "{r:?}");
         assert_eq!(
             r[1],
-            "object pushed after the release: position error 166.7 mm at frame 679 > 50.0 mm (7.8 mm at the last contact frame 534); the hand touches it up to frame 630"
+            "object pushed after the release: position error 166.7 mm at frame 679 > 50.0 mm (7.8 mm at the last contact frame 534); the hand touches it up to frame 630 (with index_middle, middle_middle)"
         );
         // The largest error elsewhere (in the grasp): the plain sentence, same count.
         report.tracking.max_position_error_frame = 300;

@@ -759,7 +759,8 @@ fn committed_demos_verdicts() {
 
 /// teapot_pour_cups at 3.5 mm carries the pot and releases it on the island within 13 mm of
 /// its plan; the hook grasp's retreat then drags it 17 cm. The report names the
-/// push, with frames that bracket it, instead of a bare position error.
+/// push, with frames that bracket it, instead of a bare position error, and the links that
+/// still touch the pot there: the fingers hooked through its handle.
 #[test]
 fn a_retreat_that_drags_the_released_teapot_is_reported_as_a_push() {
     let dir = tempfile::tempdir().unwrap();
@@ -791,6 +792,16 @@ fn a_retreat_that_drags_the_released_teapot_is_reported_as_a_push() {
     assert!(released < touch && touch <= frame, "{release}");
     assert!(f(&pushed["release_error_mm"]) < 30.0, "{pushed}");
     assert!(f(&pushed["position_error_mm"]) > 100.0, "{pushed}");
+    let links: Vec<&str> = pushed["touching_links"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_str().unwrap())
+        .collect();
+    assert!(
+        links.contains(&"index_middle") && links.contains(&"middle_middle"),
+        "{links:?}"
+    );
     let reasons: Vec<&str> = p["reasons"]
         .as_array()
         .unwrap()
@@ -800,7 +811,8 @@ fn a_retreat_that_drags_the_released_teapot_is_reported_as_a_push() {
     assert!(
         reasons
             .iter()
-            .any(|r| r.starts_with("object pushed after the release")),
+            .any(|r| r.starts_with("object pushed after the release")
+                && r.ends_with(&format!("(with {})", links.join(", ")))),
         "{reasons:?}"
     );
     assert!(
