@@ -180,6 +180,10 @@ fn baseline_section(b: &BaselineStats) -> String {
             "grasp shift: the wrist's distance from the recorded grasp, on the object",
             &b.grasp_shift_mm,
         ),
+        (
+            "grasp onset: the simulated object's distance from its plan as the carry starts (the approach and the closing moved it)",
+            &b.onset_error_mm,
+        ),
     ] {
         h.push_str(&format!(
             "<tr><td>{what}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",

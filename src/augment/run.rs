@@ -288,6 +288,7 @@ fn fill(row: &mut Row, report: &Report, spec: &Spec, dir: &Path, stretched: &[Ra
         row.d_c_stretched_mm = mean_d_c_over(&dir.join("frames.csv"), stretched);
         row.grasp_slide_mm = m.grasp_slide_mm.as_ref().map(|p| p.warped);
         row.grasp_shift_mm = m.grasp_shift_mm;
+        row.onset_error_mm = onset_error_mm(report);
         row.robust = robust(report);
     }
 }
@@ -295,6 +296,11 @@ fn fill(row: &mut Row, report: &Report, spec: &Spec, dir: &Path, stretched: &[Ra
 /// Whether the report's robustness margin holds under every condition; `None` without one.
 fn robust(report: &Report) -> Option<bool> {
     report.physics.as_ref().and_then(|p| p.robust())
+}
+
+/// The object's position error when the contact segment starts; `None` without one.
+fn onset_error_mm(report: &Report) -> Option<f64> {
+    report.physics.as_ref().and_then(|p| p.onset_error_mm())
 }
 
 fn fill_baseline(
@@ -312,6 +318,7 @@ fn fill_baseline(
         row.baseline_d_c_stretched_mm = mean_d_c_over(&dir.join(BASELINE_FRAMES), stretched);
         row.baseline_grasp_slide_mm = report.metrics.grasp_slide_mm.as_ref().map(|p| p.warped);
         row.baseline_grasp_shift_mm = report.metrics.grasp_shift_mm;
+        row.baseline_onset_error_mm = onset_error_mm(report);
         row.baseline_robust = robust(report);
     }
 }

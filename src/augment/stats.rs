@@ -85,6 +85,12 @@ pub struct Row {
     pub grasp_shift_mm: Option<f64>,
     #[serde(default)]
     pub baseline_grasp_shift_mm: Option<f64>,
+    /// How far each hand's approach and closing moved the simulated object before the carry:
+    /// its position error when the contact segment starts (`physics.onset`) [mm].
+    #[serde(default)]
+    pub onset_error_mm: Option<f64>,
+    #[serde(default)]
+    pub baseline_onset_error_mm: Option<f64>,
     /// With `--margin`: whether the sample's physics holds under every condition of the
     /// robustness margin (lower friction, heavier object; `false` when the nominal replay
     /// fails; empty without a margin).
@@ -338,6 +344,9 @@ pub struct BaselineStats {
     /// How far each hand's grasp sits from the recorded one over the contact segment [mm].
     #[serde(default)]
     pub grasp_shift_mm: HandPair,
+    /// How far each hand's approach and closing moved the object before the carry [mm].
+    #[serde(default)]
+    pub onset_error_mm: HandPair,
     /// Each hand's failures over the same samples, by [`Cause`].
     #[serde(default)]
     pub failed_by_cause: CausePair,
@@ -573,6 +582,7 @@ impl BaselineStats {
         b.d_c_stretched_mm = pair(|r| r.d_c_stretched_mm, |r| r.baseline_d_c_stretched_mm);
         b.grasp_slide_mm = pair(|r| r.grasp_slide_mm, |r| r.baseline_grasp_slide_mm);
         b.grasp_shift_mm = pair(|r| r.grasp_shift_mm, |r| r.baseline_grasp_shift_mm);
+        b.onset_error_mm = pair(|r| r.onset_error_mm, |r| r.baseline_onset_error_mm);
         Some(b)
     }
 }

@@ -222,6 +222,15 @@ impl PhysicsSummary {
         self.measures.get("margin").filter(|m| !m.is_null())
     }
 
+    /// The object's position error when the contact segment starts (`physics.onset`) [mm]:
+    /// how far the approach and the closing moved it; `None` without one.
+    pub fn onset_error_mm(&self) -> Option<f64> {
+        self.measures
+            .get("onset")?
+            .get("position_error_mm")?
+            .as_f64()
+    }
+
     /// Whether the margin holds under every condition; `None` without a margin.
     pub fn robust(&self) -> Option<bool> {
         self.margin()?.get("robust")?.as_bool()

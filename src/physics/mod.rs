@@ -307,8 +307,8 @@ pub use crate::geometry::hull::{DecompositionParams, ObjectShape, ShapeMethod, o
 pub use margin::{Margin, margin};
 pub use params::{Actuation, HandModel, Params};
 pub use report::{
-    Carry, Drop, DropCause, GraspHold, Grip, Penetration, Penetrations, PerFrame, PhysicsReport,
-    Pushed, Release, ReplayInfo, Stability, Timing, Tracking,
+    Carry, Drop, DropCause, GraspHold, Grip, Onset, Penetration, Penetrations, PerFrame,
+    PhysicsReport, Pushed, Release, ReplayInfo, Stability, Timing, Tracking,
 };
 
 use crate::geometry::Mesh;
@@ -629,6 +629,7 @@ struct ReplayChecks {
     stability_s: f64,
     release: Option<Release>,
     grip: Option<Grip>,
+    onset: Option<Onset>,
 }
 
 /// Tracking, drop, stability, release and grip of the replay `trace`.
@@ -692,6 +693,14 @@ fn check_replay(
             demo.object.mass * Vector3::from(params.gravity).norm(),
         )
     });
+    let onset = segment.and_then(|s| {
+        let (p, r) = (*pos_err.get(s.start)?, *rot_err.get(s.start)?);
+        (p.is_finite() && r.is_finite()).then(|| Onset {
+            frame: s.start,
+            position_error_mm: p * 1e3,
+            rotation_error_deg: r.to_degrees(),
+        })
+    });
     ReplayChecks {
         segment,
         pos_err,
@@ -703,6 +712,7 @@ fn check_replay(
         stability_s,
         release,
         grip,
+        onset,
     }
 }
 
@@ -801,6 +811,7 @@ fn judge(
         stability: checked.stability,
         release: checked.release,
         grip: checked.grip,
+        onset: checked.onset,
         replay: ReplayInfo {
             frames: demo.frames.len(),
             steps: trace.steps,

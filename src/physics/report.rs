@@ -249,6 +249,20 @@ pub struct PerFrame {
     pub hand_barrier_penetration_mm: Vec<f64>,
 }
 
+/// Where the simulated object is when the contact segment starts: how far the hand's
+/// approach and closing moved it before it is carried. A grasp that shoves the object as it
+/// closes starts the carry this far off its plan, and every tracking limit has that much
+/// less room (a diagnostic: no limit of its own).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Onset {
+    /// The contact segment's first frame.
+    pub frame: usize,
+    /// The object's position error there [mm].
+    pub position_error_mm: f64,
+    /// Its rotation error there [deg].
+    pub rotation_error_deg: f64,
+}
+
 /// Everything [`super::validate`] measured.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhysicsReport {
@@ -264,6 +278,9 @@ pub struct PhysicsReport {
     /// `null` without a contact segment (reports before it existed read as `null`).
     #[serde(default)]
     pub grip: Option<Grip>,
+    /// `null` without a contact segment, or when the replay stopped before it.
+    #[serde(default)]
+    pub onset: Option<Onset>,
     pub replay: ReplayInfo,
     pub timing_s: Timing,
     /// The robustness margin ([`super::margin`]); `None` when not asked for
@@ -302,6 +319,7 @@ impl PhysicsReport {
         put("stability", json(&self.stability));
         put("release", json(&self.release));
         put("grip", json(&self.grip));
+        put("onset", json(&self.onset));
         put("replay", json(&self.replay));
         put("timing_s", json(&self.timing_s));
         put("margin", json(&self.margin));

@@ -642,12 +642,43 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
             assert_eq!(shift, rep["metrics"]["grasp_shift_mm"].as_f64().unwrap());
             assert!(shift.is_finite() && shift >= 0.0, "{c}: {shift}");
         }
+        // And how far each hand's approach and closing moved the object: the position error
+        // its physics report gives at the contact segment's first frame, also in its frames.
+        for (c, rep, frames) in [
+            ("onset_error_mm", &own, "frames.csv"),
+            ("baseline_onset_error_mm", &report, "baseline.frames.csv"),
+        ] {
+            let onset = &rep["physics"]["onset"];
+            let mm: f64 = r[col(c)].parse().unwrap();
+            assert_eq!(mm, onset["position_error_mm"].as_f64().unwrap(), "{c}");
+            let first = onset["frame"].as_u64().unwrap() as usize;
+            let text = std::fs::read_to_string(dir.join(frames)).unwrap();
+            let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+            let k = head
+                .iter()
+                .position(|h| *h == "physics_position_error_mm")
+                .unwrap();
+            let in_frames: f64 = text
+                .lines()
+                .nth(1 + first)
+                .unwrap()
+                .split(',')
+                .nth(k)
+                .unwrap()
+                .parse()
+                .unwrap();
+            assert!(
+                (in_frames - mm).abs() < 1e-6,
+                "{c}: {in_frames} against {mm}"
+            );
+        }
     }
-    for m in ["grasp_slide_mm", "grasp_shift_mm"] {
+    for m in ["grasp_slide_mm", "grasp_shift_mm", "onset_error_mm"] {
         assert_eq!(b[m]["contact_ik"]["n"].as_u64(), Some(ran), "{m}: {b}");
     }
     let page = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(page.contains("grasp shift"));
+    assert!(page.contains("grasp onset"));
     assert!(page.contains("Contact IK against the SE(3) baseline"));
     assert!(page.contains("failed, by cause"));
 
