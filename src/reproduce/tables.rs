@@ -369,6 +369,8 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
             "worst frame contact IK (D_C)",
             "D_WO baseline [mm]",
             "D_WO contact IK [mm]",
+            "onset baseline [mm]",
+            "onset contact IK [mm]",
             "physics baseline",
             "physics contact IK",
             "margin baseline",
@@ -376,7 +378,7 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
         ]
         .map(String::from)
         .to_vec(),
-        note: "Stretched frames: output frames whose bracketing input step got more than one output frame (τ(s+1) − τ(s) > 1). Physics: verdict, then the failed reasons. Margin: the weakest of the robustness conditions (friction μ, mass scale) under which the pass still holds, \"robust\" when it holds under all of them (μ 0.50 at 1.5x mass); a pass that holds only at μ 1.00 and 1.0x mass is at the edge, where a change as small as the order of the solver's constraints can flip it.".into(),
+        note: "Stretched frames: output frames whose bracketing input step got more than one output frame (τ(s+1) − τ(s) > 1). Onset: the simulated object's distance from its plan at the first contact frame, how far the hand's approach and closing moved it before the carry. Physics: verdict, then the failed reasons. Margin: the weakest of the robustness conditions (friction μ, mass scale) under which the pass still holds, \"robust\" when it holds under all of them (μ 0.50 at 1.5x mass); a pass that holds only at μ 1.00 and 1.0x mass is at the edge, where a change as small as the order of the solver's constraints can flip it.".into(),
         ..Table::default()
     };
     let worst = |r: Option<&Report>| match r.and_then(|r| r.metrics.d_c_worst) {
@@ -400,6 +402,8 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
             worst(k),
             cell(b.map(|r| r.metrics.d_wo_mm.warped), 1),
             cell(k.map(|r| r.metrics.d_wo_mm.warped), 1),
+            onset(b),
+            onset(k),
             verdict_reasons(b),
             verdict_reasons(k),
             margin(b),
@@ -407,6 +411,14 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
         ]);
     }
     t
+}
+
+/// The object's position error at the first contact frame (`physics.onset`) [mm], for a
+/// table cell; `--` without one.
+fn onset(r: Option<&Report>) -> String {
+    r.and_then(|r| r.physics.as_ref())
+        .and_then(|p| p.onset_error_mm())
+        .map_or("--".into(), |v| format!("{v:.1}"))
 }
 
 /// The weakest condition a pass holds under (`μ 0.75 at 1.5x`, `robust` when it holds under

@@ -101,6 +101,32 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         }
     }
     assert_eq!(margins, 2);
+    // The comparison table's onset columns: each hand's object error at its first contact
+    // frame, as its report gives it.
+    let csv = std::fs::read_to_string(out.join("tables/baseline_comparison.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let row: Vec<&str> = csv
+        .lines()
+        .find(|l| l.starts_with("box_lift,"))
+        .unwrap()
+        .split(',')
+        .collect();
+    for (column, variant) in [
+        ("onset baseline [mm]", "baseline"),
+        ("onset contact IK [mm]", "lm_3.5mm"),
+    ] {
+        let k = head.iter().position(|h| *h == column).unwrap();
+        let run = rep.runs.iter().find(|r| r.variant.name == variant).unwrap();
+        let onset = run
+            .report
+            .physics
+            .as_ref()
+            .unwrap()
+            .onset_error_mm()
+            .unwrap();
+        assert!(onset.is_finite() && onset >= 0.0, "{column}: {onset}");
+        assert_eq!(row[k], format!("{onset:.1}"), "{column}");
+    }
     let page = out.join("index.html");
     let html = std::fs::read_to_string(&page).unwrap();
     // Nothing is loaded from the network: the only URL allowed is the SVG namespace name.
