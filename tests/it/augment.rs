@@ -558,7 +558,8 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
     assert!(
         said.contains("2 run now")
             && said.contains("paired: both")
-            && said.contains("lost in the grasp: contact IK"),
+            && said.contains("lost in the grasp: contact IK")
+            && said.contains("object off its plan as the carry starts"),
         "{said}"
     );
     let s = stats(&out);

@@ -131,6 +131,13 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
             c.contact_ik.pushed_after_release,
             c.baseline.pushed_after_release
         );
+        let o = &b.onset_error_mm;
+        if let (Some(ik), Some(base)) = (o.contact_ik.median, o.baseline.median) {
+            eprintln!(
+                "object off its plan as the carry starts (the approach and closing moved it), median of {}: contact IK {ik:.1} mm, baseline {base:.1} mm",
+                o.contact_ik.n
+            );
+        }
         if let (Some(r), Some(p)) = (&b.robust, &b.paired_robust) {
             eprintln!(
                 "baseline robust: {} of its {} kept (yield {:.1} %); paired robust: both {}, only contact IK {}, only baseline {}, neither {}",
