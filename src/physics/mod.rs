@@ -91,6 +91,17 @@
 //! teapot (103 N) slip at the 30 mm limit; the cube and the apple drop because the fingers
 //! lose the object, which they press on at only 100 of 350 and 34 of 224 contact frames.
 //!
+//! The same squeeze moves the object as the hand closes on it, wherever little stands
+//! opposite a contact: every report has `physics.onset` ([`Onset`]), the object's error at
+//! the contact segment's first frame. In `reproduce`'s run (`tables/baseline_comparison.md`,
+//! contact IK at 3.5 mm / the rigid baseline) it is 5.0-6.3 / 3.7-4.4 mm for the cubes,
+//! 5.5-6.6 / 6.2-8.1 mm for the frying pans, 6.4-7.1 / 2.9 mm for the mugs (contact IK's
+//! grasp sits 7.5 mm to the side of the recorded one, and its hand is blended into it as it
+//! closes) and 9.1-13.8 / 17.7 mm for the teapot's hook (the recorded slide into the hook
+//! closes on the handle while the hand still moves). With the skin at 0.5 or 1.5 mm the
+//! teapot's is 1.6-3.1 mm, and the pot then slips: the skin that grips is the skin that
+//! pushes.
+//!
 //! # The actuated hand (an option)
 //!
 //! [`Params::hand`] = [`HandModel::Actuated`] (`--physics-hand actuated`) replaces the

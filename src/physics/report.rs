@@ -278,7 +278,7 @@ pub struct PhysicsReport {
     /// `null` without a contact segment (reports before it existed read as `null`).
     #[serde(default)]
     pub grip: Option<Grip>,
-    /// `null` without a contact segment, or when the replay stopped before it.
+    /// `null` without a contact segment, or when the simulated pose there is not finite.
     #[serde(default)]
     pub onset: Option<Onset>,
     pub replay: ReplayInfo,
