@@ -277,6 +277,15 @@ fn synth_writes_a_demo_that_validates_and_refuses_unknown_names() {
         report["physics"]
     );
     assert!(out.join("frames.csv").is_file());
+    // It says where the grasp's closing left the box, as the report gives it.
+    let onset = &report["physics"]["onset"];
+    let said = format!(
+        "onset: the object is {:.1} mm and {:.1}° off its plan at the first contact frame {}",
+        onset["position_error_mm"].as_f64().unwrap(),
+        onset["rotation_error_deg"].as_f64().unwrap(),
+        onset["frame"].as_u64().unwrap()
+    );
+    assert!(stderr(&o).contains(&said), "{}", stderr(&o));
     // Deterministic: the same arguments give the same bytes.
     let o = synth();
     assert!(o.status.success());

@@ -86,6 +86,18 @@ pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
         report.metrics.d_c_mm.warped,
         out.join("report.json").display()
     );
+    if let Some(o) = physics
+        .and_then(|p| p.measures.get("onset"))
+        .filter(|o| !o.is_null())
+    {
+        let num = |k: &str| o.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+        eprintln!(
+            "onset: the object is {:.1} mm and {:.1}° off its plan at the first contact frame {} (how far the approach and the closing moved it)",
+            num("position_error_mm"),
+            num("rotation_error_deg"),
+            o.get("frame").and_then(|v| v.as_u64()).unwrap_or(0)
+        );
+    }
     eprintln!("{}", verdict_line(&report));
     if strict && physics.is_some_and(|p| p.verdict != "pass") {
         std::process::exit(3);
