@@ -1,8 +1,9 @@
 //! `dexwarp report DIR --compare PREV_DIR`: what changed between two runs of the same items
 //! (matched by folder): verdict flips, new failures, items gone or added, and metric changes
 //! beyond a tolerance. A change is *worse* when a verdict got worse (pass → fail → error), a
-//! new item fails, an item is gone, or D_C, D_WO, hand-object penetration or the waypoint
-//! error grew by more than its tolerance; PLR and timewarp changes beyond their tolerances
+//! new item fails, an item is gone, or D_C, D_WO, hand-object penetration, the waypoint
+//! error or the onset (how far the grasp's closing moved the object, `physics.onset`) grew
+//! by more than its tolerance; PLR and timewarp changes beyond their tolerances
 //! are listed but do not count as worse (either direction can be the intent of a change).
 //! Timing is listed apart (stage totals per item slower by more than `time_ratio` and by
 //! more than a second; the run's totals) and never counts as worse: it depends on the
@@ -22,6 +23,9 @@ pub struct Tolerances {
     pub penetration_mm: f64,
     /// Largest waypoint error [mm] (default 1).
     pub waypoint_mm: f64,
+    /// The object's error at the first contact frame (`physics.onset`) [mm] (default 2: the
+    /// closing's push moves with the solver's contact order by a millimetre or so).
+    pub onset_mm: f64,
     /// Object path length ratio (default 0.05).
     pub plr: f64,
     /// Timewarp discrepancy (default 0.02).
@@ -37,6 +41,7 @@ impl Default for Tolerances {
             d_wo_mm: 1.0,
             penetration_mm: 0.5,
             waypoint_mm: 1.0,
+            onset_mm: 2.0,
             plr: 0.05,
             timewarp: 0.02,
             time_ratio: 1.5,
@@ -142,7 +147,8 @@ pub fn compare(previous: &str, before: &[Item], now: &[Item], tol: &Tolerances) 
 }
 
 /// The metric changes of one item beyond `tol`, `rb` before and `rn` now: D_C, D_WO,
-/// penetration and waypoint error (worse when they grew), PLR and timewarp discrepancy.
+/// penetration, waypoint error and onset (worse when they grew), PLR and timewarp
+/// discrepancy.
 fn metric_changes(id: &str, rb: &Report, rn: &Report, tol: &Tolerances) -> Vec<Change> {
     let grew = |what: &str, x: Option<f64>, y: Option<f64>, tol: f64, unit: &str| {
         let (Some(x), Some(y)) = (x, y) else {
@@ -170,6 +176,7 @@ fn metric_changes(id: &str, rb: &Report, rn: &Report, tol: &Tolerances) -> Vec<C
         })
     };
     let pen = |r: &Report| r.constraints.hand_object_penetration_mm.map(|p| p.warped);
+    let onset = |r: &Report| r.physics.as_ref().and_then(|p| p.onset_error_mm());
     [
         grew(
             "D_C",
@@ -199,6 +206,7 @@ fn metric_changes(id: &str, rb: &Report, rn: &Report, tol: &Tolerances) -> Vec<C
             tol.waypoint_mm,
             " mm",
         ),
+        grew("onset", onset(rb), onset(rn), tol.onset_mm, " mm"),
         moved(
             "PLR object",
             rb.metrics.plr_object,
@@ -270,5 +278,59 @@ impl Comparison {
             }
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::report::PhysicsSummary;
+
+    fn item(onset_mm: Option<f64>) -> Item {
+        let mut physics = PhysicsSummary {
+            verdict: "pass".into(),
+            ..PhysicsSummary::default()
+        };
+        if let Some(mm) = onset_mm {
+            physics.measures.insert(
+                "onset".into(),
+                serde_json::json!({"frame": 75, "position_error_mm": mm, "rotation_error_deg": 1.0}),
+            );
+        }
+        Item {
+            id: "a".into(),
+            dir: "a".into(),
+            report: Ok(Report {
+                physics: Some(physics),
+                ..Report::default()
+            }),
+        }
+    }
+
+    /// A grasp that pushes the object further as it closes is worse beyond the tolerance;
+    /// within it, or smaller, or unknown on either side, nothing is reported.
+    #[test]
+    fn a_grown_onset_counts_as_worse() {
+        let tol = Tolerances::default();
+        let run = |before: Option<f64>, now: Option<f64>| {
+            compare("prev", &[item(before)], &[item(now)], &tol)
+        };
+        let c = run(Some(3.0), Some(17.7));
+        assert_eq!(c.worse(), 1, "{:?}", c.changes);
+        assert_eq!(c.changes[0].what, "onset");
+        assert!(
+            c.changes[0].text.starts_with("3.00 -> 17.70 mm"),
+            "{:?}",
+            c.changes
+        );
+        let c = run(Some(17.7), Some(3.0));
+        assert_eq!((c.changes.len(), c.worse()), (1, 0), "{:?}", c.changes);
+        for (before, now) in [
+            (Some(3.0), Some(4.9)),
+            (None, Some(17.7)),
+            (Some(3.0), None),
+        ] {
+            assert!(run(before, now).changes.is_empty(), "{before:?} -> {now:?}");
+        }
     }
 }

@@ -36,6 +36,10 @@ pub struct ReportArgs {
     /// Largest waypoint error increase not reported [mm].
     #[arg(long, value_name = "MM", default_value_t = 1.0, value_parser = non_negative, allow_negative_numbers = true)]
     tol_waypoint_mm: f64,
+    /// Largest increase of the onset (the object's error at the first contact frame) not
+    /// reported [mm].
+    #[arg(long, value_name = "MM", default_value_t = 2.0, value_parser = non_negative, allow_negative_numbers = true)]
+    tol_onset_mm: f64,
     /// Largest object path length ratio change not reported.
     #[arg(long, value_name = "X", default_value_t = 0.05, value_parser = non_negative, allow_negative_numbers = true)]
     tol_plr: f64,
@@ -56,6 +60,7 @@ pub fn run(args: ReportArgs, limits: Limits) -> Result<()> {
         tol_dwo_mm,
         tol_penetration_mm,
         tol_waypoint_mm,
+        tol_onset_mm,
         tol_plr,
         tol_timewarp,
         time_ratio,
@@ -88,6 +93,7 @@ pub fn run(args: ReportArgs, limits: Limits) -> Result<()> {
                 d_wo_mm: tol_dwo_mm,
                 penetration_mm: tol_penetration_mm,
                 waypoint_mm: tol_waypoint_mm,
+                onset_mm: tol_onset_mm,
                 plr: tol_plr,
                 timewarp: tol_timewarp,
                 time_ratio,
