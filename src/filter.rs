@@ -28,6 +28,10 @@ pub struct Criteria {
     pub max_waypoint_error_mm: Option<f64>,
     /// Largest timewarp discrepancy.
     pub max_timewarp_discrepancy: Option<f64>,
+    /// Largest onset [mm]: how far the hand's approach and closing moved the object by the
+    /// first contact frame (`physics.onset`); a trajectory that shoves the object as it
+    /// grasps it passes physics yet teaches a policy to shove.
+    pub max_onset_mm: Option<f64>,
     /// Reject items whose push-out hit the narrow-gap failure. Default true.
     pub reject_narrow_gap: bool,
 }
@@ -41,6 +45,7 @@ impl Default for Criteria {
             min_converged_fraction: None,
             max_waypoint_error_mm: None,
             max_timewarp_discrepancy: None,
+            max_onset_mm: None,
             reject_narrow_gap: true,
         }
     }
@@ -193,6 +198,19 @@ fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
                 "timewarp discrepancy {:.3} > {max}",
                 m.timewarp_discrepancy
             ));
+        }
+        if let Some(max) = c.max_onset_mm {
+            match report.physics.as_ref().and_then(|p| p.onset_error_mm()) {
+                Some(mm) if mm > max => {
+                    reasons.push(format!(
+                        "onset {mm:.1} mm > {max} mm (the grasp moved the object that far as it closed)"
+                    ));
+                }
+                Some(_) => {}
+                None => reasons.push(
+                    "no onset in the report (no physics, no contact segment, or a report written before onsets)".into(),
+                ),
+            }
         }
         if c.reject_narrow_gap
             && let Some(gap) = &report.constraints.narrow_gap

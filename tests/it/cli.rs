@@ -216,6 +216,37 @@ fn filter_keeps_and_explains() {
     ]);
     assert!(o.status.success());
     assert_eq!(std::fs::read_to_string(&keep).unwrap().lines().count(), 3);
+    // The onset: y's, from its report, is checked against the limit; x has none to check.
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("y/report.json")).unwrap()).unwrap();
+    let onset = report["physics"]["onset"]["position_error_mm"]
+        .as_f64()
+        .unwrap();
+    assert!(onset > 0.0, "{onset}");
+    for (limit, y_kept) in [(onset * 2.0, true), (onset / 2.0, false)] {
+        let o = dexwarp(&[
+            "filter",
+            out.to_str().unwrap(),
+            "--out",
+            keep.to_str().unwrap(),
+            "--no-physics",
+            "--max-onset-mm",
+            &format!("{limit}"),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let kept = std::fs::read_to_string(&keep).unwrap();
+        let dropped = std::fs::read_to_string(dir.path().join("keep.dropped.csv")).unwrap();
+        assert_eq!(kept.contains("/y/"), y_kept, "{kept}");
+        let x = dropped.lines().find(|l| l.contains("/x/")).unwrap();
+        assert!(x.contains("no onset in the report"), "{x}");
+        if !y_kept {
+            let y = dropped.lines().find(|l| l.contains("/y/")).unwrap();
+            assert!(
+                y.contains(&format!("onset {onset:.1} mm > {limit} mm")),
+                "{y}"
+            );
+        }
+    }
     let o = dexwarp(&[
         "filter",
         dir.path().join("empty").to_str().unwrap(),

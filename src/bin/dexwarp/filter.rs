@@ -31,6 +31,10 @@ pub struct FilterArgs {
     /// Drop items whose timewarp discrepancy is above this.
     #[arg(long, value_name = "D", value_parser = fraction, allow_negative_numbers = true)]
     max_timewarp: Option<f64>,
+    /// Drop items whose onset is above this [mm]: how far the approach and the closing moved
+    /// the object by the first contact frame.
+    #[arg(long, value_name = "MM", value_parser = positive_mm, allow_negative_numbers = true)]
+    max_onset_mm: Option<f64>,
     /// Do not require a physics pass.
     #[arg(long)]
     no_physics: bool,
@@ -51,6 +55,7 @@ pub fn run(args: FilterArgs) -> Result<()> {
         min_converged,
         max_waypoint_error_mm,
         max_timewarp,
+        max_onset_mm,
         no_physics,
         allow_narrow_gap,
         robust,
@@ -62,6 +67,7 @@ pub fn run(args: FilterArgs) -> Result<()> {
         min_converged_fraction: min_converged,
         max_waypoint_error_mm,
         max_timewarp_discrepancy: max_timewarp,
+        max_onset_mm,
         reject_narrow_gap: !allow_narrow_gap,
     };
     let result = filter::filter(&dir, &criteria)?;
