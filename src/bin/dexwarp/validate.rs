@@ -86,16 +86,13 @@ pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
         report.metrics.d_c_mm.warped,
         out.join("report.json").display()
     );
-    if let Some(o) = physics
+    let onset = physics
         .and_then(|p| p.measures.get("onset"))
-        .filter(|o| !o.is_null())
-    {
-        let num = |k: &str| o.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+        .and_then(|o| serde_json::from_value::<dexwarp::physics::Onset>(o.clone()).ok());
+    if let Some(o) = onset {
         eprintln!(
             "onset: the object is {:.1} mm and {:.1}° off its plan at the first contact frame {} (how far the approach and the closing moved it)",
-            num("position_error_mm"),
-            num("rotation_error_deg"),
-            o.get("frame").and_then(|v| v.as_u64()).unwrap_or(0)
+            o.position_error_mm, o.rotation_error_deg, o.frame
         );
     }
     eprintln!("{}", verdict_line(&report));
