@@ -4,13 +4,16 @@
 //! 1. **pre-contact**: the object rests on its support (its lowest point on the support
 //!    top). The hand waits at a retreat pose with the fingers open ([`Timing::idle`]),
 //!    reaches a pre-grasp 5 cm short of the grasp along the approach direction
-//!    ([`Timing::reach`]), then moves in while the fingers close onto the grasp
-//!    ([`Timing::close`]); all with minimum-jerk timing;
+//!    ([`Timing::reach`]), then moves in and the fingers close onto the grasp
+//!    ([`Timing::close`], [`GraspTemplate::closing`] says when each happens); all with
+//!    minimum-jerk timing;
 //! 2. **in-contact**: the grasp is held ([`Timing::hold`]), the object follows the scripted
 //!    motion ([`super::motion`], [`Timing::motion`]) and is held again on its new support;
 //!    the hand is rigidly attached to the object. Correspondences of every frame are
 //!    extracted geometrically at the grasp ([`super::contacts`]), with seeded noise;
-//! 3. **post-contact**: release (fingers open, the hand backs off 1 cm) and retreat to the
+//! 3. **post-contact**: release (fingers open, the hand backs off 1 cm along the approach;
+//!    with [`GraspTemplate::level_release`] the fingers open first and the hand backs off
+//!    level) and retreat to the
 //!    retreat pose of the final object pose, then rest.
 //!
 //! The grasp comes from contact IK ([`super::grasp`]); every frame is checked for
@@ -725,12 +728,14 @@ fn build_frames(
         let s = min_jerk(k as f64 / t.reach as f64);
         push(*start, blend(&far, &pre, s), g.q_open.clone(), Vec::new());
     }
+    let closing = template.closing;
     for k in 1..=t.close {
-        let s = min_jerk(k as f64 / t.close as f64);
+        let u = k as f64 / t.close as f64;
+        let s = min_jerk(u / closing.arrive);
         let qs = lerp_q(
             &g.q_open,
             &g.q,
-            min_jerk((k as f64 / t.close as f64 - 0.3) / 0.7),
+            min_jerk((u - closing.fingers_from) / (1.0 - closing.fingers_from)),
         );
         push(*start, blend(&pre, &grasp_w, s), qs, Vec::new());
     }
@@ -764,13 +769,34 @@ fn build_frames(
         push(o, w, g.q.clone(), c);
     }
     let end_grasp = end * g.wrist_in_object;
-    let backed = offset_pose(&end, 0.01, 0.0);
+    let backed = if template.level_release {
+        let dir = end.rotation * approach;
+        let level = Vector3::new(dir.x, dir.y, 0.0)
+            .try_normalize(1e-12)
+            .unwrap_or_else(Vector3::zeros);
+        Isometry3::from_parts(
+            Translation3::from(end_grasp.translation.vector + level * 0.01),
+            end_grasp.rotation,
+        )
+    } else {
+        offset_pose(&end, 0.01, 0.0)
+    };
+    // A level release opens the fingers over the first half, then backs off.
+    let (open_by, back_from) = if template.level_release {
+        (0.5, 0.5)
+    } else {
+        (1.0, 0.0)
+    };
     for k in 1..=t.release {
-        let s = min_jerk(k as f64 / t.release as f64);
+        let u = k as f64 / t.release as f64;
         push(
             end,
-            blend(&end_grasp, &backed, s),
-            lerp_q(&g.q, &g.q_open, s),
+            blend(
+                &end_grasp,
+                &backed,
+                min_jerk((u - back_from) / (1.0 - back_from)),
+            ),
+            lerp_q(&g.q, &g.q_open, min_jerk(u / open_by)),
             Vec::new(),
         );
     }
@@ -823,5 +849,89 @@ pub fn round_demo(demo: &mut Demo) {
             c.hand_point = Point3::from(c.hand_point.coords.map(|v| round(v, 1e6)));
             c.object_point = Point3::from(c.object_point.coords.map(|v| round(v, 1e6)));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The frames of `object`'s human template around a grasp 10 cm beside the object, with
+    /// a two-joint hand closing from 1 to 0 (the frame builder needs no robot).
+    fn frames_of(object: ObjectKind, motion: Motion) -> (SynthSpec, Grasp, Vec<Frame>) {
+        let spec = SynthSpec::new("t", object, motion);
+        let template = templates::template(HandFamily::Human, object).unwrap();
+        let g = Grasp {
+            wrist_in_object: Isometry3::translation(-0.1, 0.0, 0.0),
+            q: vec![0.0, 0.0],
+            q_open: vec![1.0, 1.0],
+            ik_mean_mm: 0.0,
+            ik_iterations: 0,
+            depth_mm: 0.0,
+            nudges: 0,
+        };
+        let start = Isometry3::translation(0.0, 0.0, 1.0);
+        let frames = build_frames(&spec, &start, &g, &template, &[]);
+        assert_eq!(frames.len(), spec.timing.frames());
+        (spec, g, frames)
+    }
+
+    fn wrist_in_object(f: &Frame) -> Vector3<f64> {
+        (f.object.inverse() * f.wrist).translation.vector
+    }
+
+    #[test]
+    fn the_teapot_hand_is_in_place_before_its_fingers_close() {
+        let (spec, g, frames) = frames_of(ObjectKind::Teapot, Motion::Pour);
+        let t = spec.timing;
+        let first = t.idle + t.reach;
+        for k in 1..=t.close {
+            let (u, f) = (k as f64 / t.close as f64, &frames[first + k - 1]);
+            let off = (wrist_in_object(f) - g.wrist_in_object.translation.vector).norm();
+            if u >= 0.6 {
+                assert!(off < 1e-12, "frame {k} of the closing: {off} m off the grasp");
+            } else {
+                assert!(off > 1e-6, "frame {k} of the closing is already at the grasp");
+            }
+            if u <= 0.5 {
+                assert_eq!(f.joints, g.q_open, "frame {k} of the closing");
+            } else {
+                assert!(f.joints[0] < 1.0, "frame {k} of the closing");
+            }
+        }
+        // The mug's hand closes its fingers as it moves in.
+        let (spec, g, frames) = frames_of(ObjectKind::Mug, Motion::Pass);
+        let t = spec.timing;
+        let mid = &frames[t.idle + t.reach + t.close / 2 - 1];
+        assert!(mid.joints[0] < 1.0);
+        assert!((wrist_in_object(mid) - g.wrist_in_object.translation.vector).norm() > 1e-3);
+    }
+
+    #[test]
+    fn the_teapot_hand_opens_then_backs_off_level() {
+        let (spec, g, frames) = frames_of(ObjectKind::Teapot, Motion::Pour);
+        let t = spec.timing;
+        let first = t.idle + t.reach + t.close + t.contact_frames();
+        let grasp = frames[first - 1].wrist.translation.vector;
+        for k in 1..=t.release {
+            let (u, f) = (k as f64 / t.release as f64, &frames[first + k - 1]);
+            let moved = f.wrist.translation.vector - grasp;
+            if u <= 0.5 {
+                assert!(moved.norm() < 1e-12, "frame {k} of the release moved {moved}");
+            }
+            if u >= 0.5 {
+                assert_eq!(f.joints, g.q_open, "frame {k} of the release");
+            }
+            assert!(moved.z.abs() < 1e-12, "frame {k} of the release rises {}", moved.z);
+        }
+        let backed = frames[first + t.release - 1].wrist.translation.vector - grasp;
+        assert!((backed.norm() - 0.01).abs() < 1e-9, "{backed}");
+        // The mug's hand rises with its approach as it backs off, fingers opening.
+        let (spec, _, frames) = frames_of(ObjectKind::Mug, Motion::Pass);
+        let t = spec.timing;
+        let first = t.idle + t.reach + t.close + t.contact_frames();
+        let mid = &frames[first + t.release / 2];
+        assert!(mid.wrist.translation.z > frames[first - 1].wrist.translation.z + 1e-4);
+        assert!(mid.joints[0] > 0.0 && mid.joints[0] < 1.0);
     }
 }

@@ -40,7 +40,7 @@
 
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
-use super::grasp::{GraspTemplate, PadTarget, hand_rotation};
+use super::grasp::{Closing, GraspTemplate, PadTarget, hand_rotation};
 use super::proximity::ObjectGeometry;
 use crate::geometry::shape::SurfaceSampling;
 use crate::robot::{JointKind, LinkId, Robot, WRIST_DOF};
@@ -509,6 +509,8 @@ pub fn template(robot: &Robot, layout: &HandLayout, geo: &ObjectGeometry) -> Gra
         turn_rad: 0.25,
         preshape_q: Some(layout.q_ref.clone()),
         kinematic_open: true,
+        closing: Closing::WHILE_MOVING,
+        level_release: false,
     }
 }
 

@@ -114,6 +114,37 @@ pub struct GraspTemplate {
     /// Open the hand along the closing directions found from the kinematics at the grasp
     /// ([`super::generic::open_q`]) instead of `open`.
     pub kinematic_open: bool,
+    /// When the wrist arrives and the fingers close in the closing phase.
+    pub closing: Closing,
+    /// The release opens the fingers first, then backs the hand off along the approach
+    /// without its vertical part (a hand hooked through a handle slides out level: the
+    /// approach's rise would lift the object by its handle); `false`: the fingers open as
+    /// the hand backs off along the approach.
+    pub level_release: bool,
+}
+
+/// The closing phase of a demonstration, as fractions of it: the wrist moves from the
+/// pre-grasp to the grasp over `[0, arrive]`, the fingers close over `[fingers_from, 1]`
+/// (each with minimum-jerk timing).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Closing {
+    pub arrive: f64,
+    pub fingers_from: f64,
+}
+
+impl Closing {
+    /// The hand slides in as the fingers close over the last 70 %.
+    pub const WHILE_MOVING: Closing = Closing {
+        arrive: 1.0,
+        fingers_from: 0.3,
+    };
+    /// The hand is in place at 60 % and the fingers close from halfway: fingers that close
+    /// while the hand still slides drag the object along (the teapot's hook moved its pot
+    /// 17.7 mm before the lift, 7.0 mm this way).
+    pub const ARRIVE_THEN_CLOSE: Closing = Closing {
+        arrive: 0.6,
+        fingers_from: 0.5,
+    };
 }
 
 /// Tunables of the grasp solve.

@@ -15,7 +15,7 @@
 //! | four-finger | cube | as the five-finger cube grasp |
 //! | gripper | small box, cube | jaws on two opposite faces, from above |
 
-use super::grasp::{GraspTemplate, HandFamily, PadTarget};
+use super::grasp::{Closing, GraspTemplate, HandFamily, PadTarget};
 use super::objects::ObjectKind;
 
 /// Pad radii [m] (`robots/README.md`).
@@ -152,6 +152,8 @@ fn human_cube() -> GraspTemplate {
         turn_rad: 0.25,
         preshape_q: None,
         kinematic_open: false,
+        closing: Closing::WHILE_MOVING,
+        level_release: false,
     }
 }
 
@@ -186,6 +188,8 @@ fn human_frying_pan() -> GraspTemplate {
         turn_rad: 0.25,
         preshape_q: None,
         kinematic_open: false,
+        closing: Closing::WHILE_MOVING,
+        level_release: false,
     }
 }
 
@@ -223,14 +227,19 @@ fn human_mug() -> GraspTemplate {
         turn_rad: 0.25,
         preshape_q: None,
         kinematic_open: false,
+        closing: Closing::WHILE_MOVING,
+        level_release: false,
     }
 }
 
 /// Hook grasp through the handle loop: the palm on the outer face of the handle's
 /// outer bar, index and middle through the opening with their middle phalanges on the
-/// bar's inner face, the thumb on top. The hand slides in and out along `+y` (slightly
-/// from above), with the middle finger's middle phalanx opened so it clears the bar,
-/// and without the relaxed turn, which would sweep the fingers through the bar.
+/// bar's inner face, the thumb on top. The hand slides in along `+y` (slightly from
+/// above), with the middle finger's middle phalanx opened so it clears the bar, and without
+/// the relaxed turn, which would sweep the fingers through the bar. It is in place before the
+/// fingers close, and slides out level after they open: fingers closing on the move dragged
+/// the pot 17.7 mm before the lift, and backing off with the approach's rise lifted the
+/// released pot by its handle.
 fn human_teapot() -> GraspTemplate {
     GraspTemplate {
         palm_normal: [1.0, 0.0, 0.0],
@@ -260,6 +269,8 @@ fn human_teapot() -> GraspTemplate {
         turn_rad: 0.0,
         preshape_q: None,
         kinematic_open: false,
+        closing: Closing::ARRIVE_THEN_CLOSE,
+        level_release: true,
     }
 }
 fn allegro(object: ObjectKind) -> Option<GraspTemplate> {
@@ -322,6 +333,8 @@ fn allegro(object: ObjectKind) -> Option<GraspTemplate> {
         turn_rad: 0.25,
         preshape_q: None,
         kinematic_open: false,
+        closing: Closing::WHILE_MOVING,
+        level_release: false,
     })
 }
 
@@ -363,6 +376,8 @@ fn gripper(object: ObjectKind) -> Option<GraspTemplate> {
         turn_rad: 0.25,
         preshape_q: None,
         kinematic_open: false,
+        closing: Closing::WHILE_MOVING,
+        level_release: false,
     })
 }
 
