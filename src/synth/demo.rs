@@ -12,8 +12,8 @@
 //!    the hand is rigidly attached to the object. Correspondences of every frame are
 //!    extracted geometrically at the grasp ([`super::contacts`]), with seeded noise;
 //! 3. **post-contact**: release (fingers open, the hand backs off 1 cm along the approach;
-//!    with [`GraspTemplate::level_release`] the fingers open first and the hand backs off
-//!    level) and retreat to the
+//!    with [`GraspTemplate::level_release`] the fingers open first, the hand backs off level
+//!    and slides out 8 cm level before it rises) and retreat to the
 //!    retreat pose of the final object pose, then rest.
 //!
 //! The grasp comes from contact IK ([`super::grasp`]); every frame is checked for
@@ -769,17 +769,19 @@ fn build_frames(
         push(o, w, g.q.clone(), c);
     }
     let end_grasp = end * g.wrist_in_object;
-    let backed = if template.level_release {
+    // The approach without its vertical part, for a level release.
+    let level = template.level_release.then(|| {
         let dir = end.rotation * approach;
-        let level = Vector3::new(dir.x, dir.y, 0.0)
+        Vector3::new(dir.x, dir.y, 0.0)
             .try_normalize(1e-12)
-            .unwrap_or_else(Vector3::zeros);
-        Isometry3::from_parts(
+            .unwrap_or_else(Vector3::zeros)
+    });
+    let backed = match level {
+        Some(level) => Isometry3::from_parts(
             Translation3::from(end_grasp.translation.vector + level * 0.01),
             end_grasp.rotation,
-        )
-    } else {
-        offset_pose(&end, 0.01, 0.0)
+        ),
+        None => offset_pose(&end, 0.01, 0.0),
     };
     // A level release opens the fingers over the first half, then backs off.
     let (open_by, back_from) = if template.level_release {
@@ -801,11 +803,24 @@ fn build_frames(
         );
     }
     let far_end = offset_pose(&end, spec.retreat_m, -template.turn_rad);
+    // A level release slides out 8 cm level (the fingers clear of a handle) over the first
+    // half of the retreat, then goes to the retreat pose.
+    let level_out = level.map(|level| {
+        Isometry3::from_parts(
+            Translation3::from(end_grasp.translation.vector + level * 0.08),
+            end_grasp.rotation,
+        )
+    });
     for k in 1..=t.retreat {
-        let s = min_jerk(k as f64 / t.retreat as f64);
+        let u = k as f64 / t.retreat as f64;
+        let pose = match &level_out {
+            Some(out) if u <= 0.5 => blend(&backed, out, min_jerk(u / 0.5)),
+            Some(out) => blend(out, &far_end, min_jerk((u - 0.5) / 0.5)),
+            None => blend(&backed, &far_end, min_jerk(u)),
+        };
         push(
             end,
-            blend(&backed, &far_end, s),
+            pose,
             g.q_open.clone(),
             Vec::new(),
         );
@@ -908,7 +923,7 @@ mod tests {
     }
 
     #[test]
-    fn the_teapot_hand_opens_then_backs_off_level() {
+    fn the_teapot_hand_opens_then_slides_out_level() {
         let (spec, g, frames) = frames_of(ObjectKind::Teapot, Motion::Pour);
         let t = spec.timing;
         let first = t.idle + t.reach + t.close + t.contact_frames();
@@ -926,6 +941,15 @@ mod tests {
         }
         let backed = frames[first + t.release - 1].wrist.translation.vector - grasp;
         assert!((backed.norm() - 0.01).abs() < 1e-9, "{backed}");
+        // It slides out 8 cm level over the first half of the retreat, then rises.
+        let first = first + t.release;
+        for k in 1..=t.retreat / 2 {
+            let moved = frames[first + k - 1].wrist.translation.vector - grasp;
+            assert!(moved.z.abs() < 1e-12, "frame {k} of the retreat rises {}", moved.z);
+        }
+        let out = frames[first + t.retreat / 2 - 1].wrist.translation.vector - grasp;
+        assert!((out.norm() - 0.08).abs() < 1e-9, "{out}");
+        assert!(frames[first + t.retreat - 1].wrist.translation.z > grasp.z + 0.01);
         // The mug's hand rises with its approach as it backs off, fingers opening.
         let (spec, _, frames) = frames_of(ObjectKind::Mug, Motion::Pass);
         let t = spec.timing;

@@ -117,9 +117,10 @@ pub struct GraspTemplate {
     /// When the wrist arrives and the fingers close in the closing phase.
     pub closing: Closing,
     /// The release opens the fingers first, then backs the hand off along the approach
-    /// without its vertical part (a hand hooked through a handle slides out level: the
-    /// approach's rise would lift the object by its handle); `false`: the fingers open as
-    /// the hand backs off along the approach.
+    /// without its vertical part, and the retreat slides it 8 cm out that way before it
+    /// rises (a hand hooked through a handle slides out level: the approach's rise would
+    /// lift the object by its handle); `false`: the fingers open as the hand backs off along
+    /// the approach, and it retreats along the approach.
     pub level_release: bool,
 }
 
