@@ -675,6 +675,35 @@ fn check_penetration(
     Ok((worst, c0, c1))
 }
 
+/// Retreat pose of an object pose: the grasp `g` moved `dist` back along the approach
+/// direction (object frame, unit) and turned about the vertical by `turn`.
+fn offset_pose(
+    g: &Grasp,
+    approach: &Vector3<f64>,
+    object: &Isometry3<f64>,
+    dist: f64,
+    turn: f64,
+) -> Isometry3<f64> {
+    let grasp = object * g.wrist_in_object;
+    let dir = object.rotation * approach;
+    let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), turn);
+    Isometry3::from_parts(
+        Translation3::from(grasp.translation.vector + dir * dist),
+        rot * grasp.rotation,
+    )
+}
+
+fn lerp_q(a: &[f64], b: &[f64], s: f64) -> Vec<f64> {
+    a.iter().zip(b).map(|(x, y)| x + (y - x) * s).collect()
+}
+
+fn blend(a: &Isometry3<f64>, b: &Isometry3<f64>, s: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::from(a.translation.vector.lerp(&b.translation.vector, s)),
+        a.rotation.slerp(&b.rotation, s),
+    )
+}
+
 /// The frames of the three segments (see the module docs).
 fn build_frames(
     spec: &SynthSpec,
@@ -688,27 +717,6 @@ fn build_frames(
         .try_normalize(1e-12)
         .unwrap_or_else(Vector3::z);
     let end = motion::object_pose(spec.motion, &spec.motion_params, start, 1.0);
-    // Retreat pose of an object pose: the grasp moved back along the approach direction
-    // (object frame, turned by the object's yaw only so the hand stays upright) and turned
-    // about the vertical by the template's `turn_rad`.
-    let offset_pose = |object: &Isometry3<f64>, dist: f64, turn: f64| -> Isometry3<f64> {
-        let grasp = object * g.wrist_in_object;
-        let dir = object.rotation * approach;
-        let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), turn);
-        Isometry3::from_parts(
-            Translation3::from(grasp.translation.vector + dir * dist),
-            rot * grasp.rotation,
-        )
-    };
-    let lerp_q = |a: &[f64], b: &[f64], s: f64| -> Vec<f64> {
-        a.iter().zip(b).map(|(x, y)| x + (y - x) * s).collect()
-    };
-    let blend = |a: &Isometry3<f64>, b: &Isometry3<f64>, s: f64| -> Isometry3<f64> {
-        Isometry3::from_parts(
-            Translation3::from(a.translation.vector.lerp(&b.translation.vector, s)),
-            a.rotation.slerp(&b.rotation, s),
-        )
-    };
     let mut frames = Vec::with_capacity(t.frames());
     let mut push = |object: Isometry3<f64>, wrist: Isometry3<f64>, q: Vec<f64>, c: Vec<Contact>| {
         frames.push(Frame {
@@ -718,8 +726,8 @@ fn build_frames(
             contacts: c,
         });
     };
-    let far = offset_pose(start, spec.retreat_m, template.turn_rad);
-    let pre = offset_pose(start, 0.05, 0.0);
+    let far = offset_pose(g, &approach, start, spec.retreat_m, template.turn_rad);
+    let pre = offset_pose(g, &approach, start, 0.05, 0.0);
     let grasp_w = start * g.wrist_in_object;
     for _ in 0..t.idle {
         push(*start, far, g.q_open.clone(), Vec::new());
@@ -768,6 +776,23 @@ fn build_frames(
         let (o, w, c) = contact_frame(object_at(i));
         push(o, w, g.q.clone(), c);
     }
+    for (wrist, q) in post_contact_hand(spec, template, g, &approach, &end) {
+        push(end, wrist, q, Vec::new());
+    }
+    frames
+}
+
+/// The hand of the post-contact frames (release, retreat, rest) about the object's final
+/// pose `end`: wrist pose and joints of each frame.
+fn post_contact_hand(
+    spec: &SynthSpec,
+    template: &GraspTemplate,
+    g: &Grasp,
+    approach: &Vector3<f64>,
+    end: &Isometry3<f64>,
+) -> Vec<(Isometry3<f64>, Vec<f64>)> {
+    let t = &spec.timing;
+    let mut out = Vec::with_capacity(t.release + t.retreat + t.rest);
     let end_grasp = end * g.wrist_in_object;
     // The approach without its vertical part, for a level release.
     let level = template.level_release.then(|| {
@@ -776,12 +801,15 @@ fn build_frames(
             .try_normalize(1e-12)
             .unwrap_or_else(Vector3::zeros)
     });
-    let backed = match level {
-        Some(level) => Isometry3::from_parts(
-            Translation3::from(end_grasp.translation.vector + level * 0.01),
+    let level_pose = |level: Vector3<f64>, dist: f64| {
+        Isometry3::from_parts(
+            Translation3::from(end_grasp.translation.vector + level * dist),
             end_grasp.rotation,
-        ),
-        None => offset_pose(&end, 0.01, 0.0),
+        )
+    };
+    let backed = match level {
+        Some(level) => level_pose(level, 0.01),
+        None => offset_pose(g, approach, end, 0.01, 0.0),
     };
     // A level release opens the fingers over the first half, then backs off.
     let (open_by, back_from) = if template.level_release {
@@ -791,44 +819,29 @@ fn build_frames(
     };
     for k in 1..=t.release {
         let u = k as f64 / t.release as f64;
-        push(
-            end,
-            blend(
-                &end_grasp,
-                &backed,
-                min_jerk((u - back_from) / (1.0 - back_from)),
-            ),
+        let s = min_jerk((u - back_from) / (1.0 - back_from));
+        out.push((
+            blend(&end_grasp, &backed, s),
             lerp_q(&g.q, &g.q_open, min_jerk(u / open_by)),
-            Vec::new(),
-        );
+        ));
     }
-    let far_end = offset_pose(&end, spec.retreat_m, -template.turn_rad);
+    let far_end = offset_pose(g, approach, end, spec.retreat_m, -template.turn_rad);
     // A level release slides out 8 cm level (the fingers clear of a handle) over the first
     // half of the retreat, then goes to the retreat pose.
-    let level_out = level.map(|level| {
-        Isometry3::from_parts(
-            Translation3::from(end_grasp.translation.vector + level * 0.08),
-            end_grasp.rotation,
-        )
-    });
+    let level_out = level.map(|level| level_pose(level, 0.08));
     for k in 1..=t.retreat {
         let u = k as f64 / t.retreat as f64;
         let pose = match &level_out {
-            Some(out) if u <= 0.5 => blend(&backed, out, min_jerk(u / 0.5)),
-            Some(out) => blend(out, &far_end, min_jerk((u - 0.5) / 0.5)),
+            Some(o) if u <= 0.5 => blend(&backed, o, min_jerk(u / 0.5)),
+            Some(o) => blend(o, &far_end, min_jerk((u - 0.5) / 0.5)),
             None => blend(&backed, &far_end, min_jerk(u)),
         };
-        push(
-            end,
-            pose,
-            g.q_open.clone(),
-            Vec::new(),
-        );
+        out.push((pose, g.q_open.clone()));
     }
     for _ in 0..t.rest {
-        push(end, far_end, g.q_open.clone(), Vec::new());
+        out.push((far_end, g.q_open.clone()));
     }
-    frames
+    out
 }
 
 /// Rounds to `1/scale`; `+ 0.0` turns `-0.0` into `0.0`.
@@ -904,9 +917,15 @@ mod tests {
             let (u, f) = (k as f64 / t.close as f64, &frames[first + k - 1]);
             let off = (wrist_in_object(f) - g.wrist_in_object.translation.vector).norm();
             if u >= 0.6 {
-                assert!(off < 1e-12, "frame {k} of the closing: {off} m off the grasp");
+                assert!(
+                    off < 1e-12,
+                    "frame {k} of the closing: {off} m off the grasp"
+                );
             } else {
-                assert!(off > 1e-6, "frame {k} of the closing is already at the grasp");
+                assert!(
+                    off > 1e-6,
+                    "frame {k} of the closing is already at the grasp"
+                );
             }
             if u <= 0.5 {
                 assert_eq!(f.joints, g.q_open, "frame {k} of the closing");
@@ -932,12 +951,19 @@ mod tests {
             let (u, f) = (k as f64 / t.release as f64, &frames[first + k - 1]);
             let moved = f.wrist.translation.vector - grasp;
             if u <= 0.5 {
-                assert!(moved.norm() < 1e-12, "frame {k} of the release moved {moved}");
+                assert!(
+                    moved.norm() < 1e-12,
+                    "frame {k} of the release moved {moved}"
+                );
             }
             if u >= 0.5 {
                 assert_eq!(f.joints, g.q_open, "frame {k} of the release");
             }
-            assert!(moved.z.abs() < 1e-12, "frame {k} of the release rises {}", moved.z);
+            assert!(
+                moved.z.abs() < 1e-12,
+                "frame {k} of the release rises {}",
+                moved.z
+            );
         }
         let backed = frames[first + t.release - 1].wrist.translation.vector - grasp;
         assert!((backed.norm() - 0.01).abs() < 1e-9, "{backed}");
@@ -945,7 +971,11 @@ mod tests {
         let first = first + t.release;
         for k in 1..=t.retreat / 2 {
             let moved = frames[first + k - 1].wrist.translation.vector - grasp;
-            assert!(moved.z.abs() < 1e-12, "frame {k} of the retreat rises {}", moved.z);
+            assert!(
+                moved.z.abs() < 1e-12,
+                "frame {k} of the retreat rises {}",
+                moved.z
+            );
         }
         let out = frames[first + t.retreat / 2 - 1].wrist.translation.vector - grasp;
         assert!((out.norm() - 0.08).abs() < 1e-9, "{out}");

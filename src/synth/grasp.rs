@@ -126,7 +126,7 @@ pub struct GraspTemplate {
 
 /// The closing phase of a demonstration, as fractions of it: the wrist moves from the
 /// pre-grasp to the grasp over `[0, arrive]`, the fingers close over `[fingers_from, 1]`
-/// (each with minimum-jerk timing).
+/// (each with minimum-jerk timing; `0 < arrive <= 1`, `0 <= fingers_from < 1`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Closing {
     pub arrive: f64,

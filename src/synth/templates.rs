@@ -10,7 +10,7 @@
 //! | five-finger | cube | from above: thumb on the near face, index and middle on the far face |
 //! | five-finger | frying pan | power grasp of the handle: palm on top, fingers wrapped under, thumb along the top toward the pan |
 //! | five-finger | mug | body from above: thumb on the near side, index, middle and ring on the far side, clear of the handle |
-//! | five-finger | teapot | hook through the handle loop: palm on the outer bar, index and middle middle phalanges on its inner face, thumb on top; slid in along the handle's side |
+//! | five-finger | teapot | hook through the handle loop: palm on the outer bar, index and middle middle phalanges on its inner face, thumb on top; slid in along the handle's side, in place before the fingers close, slid out level after they open |
 //! | four-finger | apple | fingertip grasp from above: three fingers on the far side, thumb on the near side |
 //! | four-finger | cube | as the five-finger cube grasp |
 //! | gripper | small box, cube | jaws on two opposite faces, from above |
