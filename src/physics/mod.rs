@@ -54,8 +54,8 @@
 //!   (the solver takes each contact's lever arm from the manifold point it names, so added
 //!   contacts sit on the original point); an angular impulse before each step, capped at a
 //!   5 mm pad's `(2/3)·μ·a·N` per hand-object manifold, held the mug better (mean rotation
-//!   error 1.84° → 0.72°) but the teapot original failed with it: after the release the
-//!   retreating hand hooked the pot and dragged it 166 mm. Not adopted.
+//!   error 1.84° → 0.72°) but the teapot original of then failed with it: after the release
+//!   the retreating hand hooked the pot and dragged it 166 mm. Not adopted.
 //!
 //! # Grip: how much comes from the overlap, how much from the skin
 //!
@@ -97,10 +97,10 @@
 //! contact IK at 3.5 mm / the rigid baseline) it is 5.0-6.3 / 3.7-4.4 mm for the cubes,
 //! 5.5-6.6 / 6.2-8.1 mm for the frying pans, 6.4-7.1 / 2.9 mm for the mugs (contact IK's
 //! grasp sits 7.5 mm to the side of the recorded one, and its hand is blended into it as it
-//! closes) and 9.1-13.8 / 17.7 mm for the teapot's hook (the recorded slide into the hook
-//! closes on the handle while the hand still moves). With the skin at 0.5 or 1.5 mm the
-//! teapot's is 1.6-3.1 mm, and the pot then slips: the skin that grips is the skin that
-//! pushes.
+//! closes) and 4.8-6.6 / 7.0-7.6 mm for the teapot's hook, whose hand is in place before
+//! its fingers close. Its earlier demonstration closed them while the hand still slid in:
+//! 9.1-13.8 / 17.7 mm, and with the skin at 0.5 or 1.5 mm 1.6-3.1 mm, but the pot then
+//! slipped: the skin that grips is the skin that pushes.
 //!
 //! # The actuated hand (an option)
 //!
