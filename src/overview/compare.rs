@@ -24,8 +24,8 @@ pub struct Tolerances {
     /// Largest waypoint error [mm] (default 1).
     pub waypoint_mm: f64,
     /// The object's error at the first contact frame (`physics.onset`) [mm] (default 2: every
-    /// grasp's closing moves the object a few millimetres, 2.2-8.1 mm on the built-in configs
-    /// but the teapot's; what to flag is a grasp that starts shoving it).
+    /// grasp's closing moves the object a few millimetres, 2.2-8.1 mm on the built-in configs;
+    /// what to flag is a grasp that starts shoving it).
     pub onset_mm: f64,
     /// Object path length ratio (default 0.05).
     pub plr: f64,

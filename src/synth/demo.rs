@@ -812,7 +812,7 @@ fn post_contact_hand(
         None => offset_pose(g, approach, end, 0.01, 0.0),
     };
     // A level release opens the fingers over the first half, then backs off.
-    let (open_by, back_from) = if template.level_release {
+    let (open_by, back_from) = if level.is_some() {
         (0.5, 0.5)
     } else {
         (1.0, 0.0)
