@@ -13,7 +13,8 @@
 //!    extracted geometrically at the grasp ([`super::contacts`]), with seeded noise;
 //! 3. **post-contact**: release (fingers open, the hand backs off 1 cm along the approach;
 //!    with [`GraspTemplate::level_release`] the fingers open first, the hand backs off level
-//!    and slides out 8 cm level before it rises) and retreat to the
+//!    and slides out 8 cm level, stepping around the object where it is near, before it
+//!    rises) and retreat to the
 //!    retreat pose of the final object pose, then rest.
 //!
 //! The grasp comes from contact IK ([`super::grasp`]); every frame is checked for
@@ -34,6 +35,7 @@ use super::proximity::{ObjectGeometry, penetration};
 use super::templates;
 use crate::geometry::Mesh;
 use crate::geometry::shape::{CollisionShape, ShapeKind};
+use crate::hand::pushout::LinkClearance;
 use crate::model::demo::ObjectInfo;
 use crate::model::{Contact, Demo, Frame};
 use crate::robot::Robot;
@@ -253,6 +255,7 @@ pub fn synthesize(
     let scene = synth_scene(spec, robot_path)?;
     let mut poses = robot.new_link_poses();
     let samples = contacts::hand_samples(robot, spec.contacts.spacing_mm * 1e-3);
+    let mut clear = Clearance::new(robot, &shape);
     let mut build = |template: &GraspTemplate, g: &Grasp| -> Result<Candidate> {
         // Correspondences at the grasp, object frame.
         let wrist0 = start * g.wrist_in_object;
@@ -271,24 +274,9 @@ pub fn synthesize(
                 format!("the grasp of '{object}' touches the object nowhere"),
             ));
         }
-        let frames = build_frames(spec, &start, g, template, &base_contacts);
-        let mut demo = Demo {
-            name: spec.name.clone(),
-            fps: spec.fps,
-            robot: robot_path.to_path_buf(),
-            object: ObjectInfo {
-                name: object.name().to_string(),
-                mesh: mesh_path.to_path_buf(),
-                mass: object.mass_kg(),
-            },
-            joint_names: robot.actuated_names(),
-            frames,
-            timewarp: None,
-            scene: None,
-            barriers: Vec::new(),
-            wrist_link: spec.wrist_link.clone(),
-            source: PathBuf::from(format!("{}.demo.json", spec.name)),
-        };
+        let mut clearance = |o: &Isometry3<f64>, w: &Isometry3<f64>| clear.of(&g.q_open, o, w);
+        let frames = build_frames(spec, &start, g, template, &base_contacts, &mut clearance);
+        let mut demo = new_demo(spec, robot, robot_path, mesh_path, frames);
         round_demo(&mut demo);
         let replay = crate::physics::validate(
             robot,
@@ -329,6 +317,33 @@ pub fn synthesize(
         },
         demo,
     })
+}
+
+/// The demonstration of `spec` with `frames`, its robot and object files named.
+fn new_demo(
+    spec: &SynthSpec,
+    robot: &Robot,
+    robot_path: &Path,
+    mesh_path: &Path,
+    frames: Vec<Frame>,
+) -> Demo {
+    Demo {
+        name: spec.name.clone(),
+        fps: spec.fps,
+        robot: robot_path.to_path_buf(),
+        object: ObjectInfo {
+            name: spec.object.name().to_string(),
+            mesh: mesh_path.to_path_buf(),
+            mass: spec.object.mass_kg(),
+        },
+        joint_names: robot.actuated_names(),
+        frames,
+        timewarp: None,
+        scene: None,
+        barriers: Vec::new(),
+        wrist_link: spec.wrist_link.clone(),
+        source: PathBuf::from(format!("{}.demo.json", spec.name)),
+    }
 }
 
 /// A candidate grasp built into its demonstration, and that demonstration's replay.
@@ -711,6 +726,7 @@ fn build_frames(
     g: &Grasp,
     template: &GraspTemplate,
     base_contacts: &[Contact],
+    clearance: &mut dyn FnMut(&Isometry3<f64>, &Isometry3<f64>) -> f64,
 ) -> Vec<Frame> {
     let t = &spec.timing;
     let approach = Vector3::from(template.approach)
@@ -776,64 +792,172 @@ fn build_frames(
         let (o, w, c) = contact_frame(object_at(i));
         push(o, w, g.q.clone(), c);
     }
-    for (wrist, q) in post_contact_hand(spec, template, g, &approach, &end) {
+    for (wrist, q) in post_contact_hand(spec, template, g, &approach, &end, clearance) {
         push(end, wrist, q, Vec::new());
     }
     frames
 }
 
+/// How far the open hand is from the object, for a level release's slide-out
+/// ([`SlidePath`]), up to [`SLIDE_CLEARANCE_M`].
+struct Clearance<'a> {
+    robot: &'a Robot,
+    /// The object at the origin.
+    object: LinkClearance<'a>,
+    poses: Vec<Isometry3<f64>>,
+}
+
+impl<'a> Clearance<'a> {
+    fn new(robot: &'a Robot, object: &'a CollisionShape) -> Clearance<'a> {
+        Clearance {
+            robot,
+            object: LinkClearance::new(robot, std::slice::from_ref(object), SLIDE_CLEARANCE_M),
+            poses: robot.new_link_poses(),
+        }
+    }
+
+    /// The clearance [m] of the hand at joints `q` and wrist `wrist` from the object at
+    /// `object` (world poses); negative when they overlap.
+    fn of(&mut self, q: &[f64], object: &Isometry3<f64>, wrist: &Isometry3<f64>) -> f64 {
+        let wrist = object.inverse() * wrist;
+        self.robot.forward_kinematics(&wrist, q, &mut self.poses);
+        self.object
+            .nearest(&self.poses)
+            .map_or(SLIDE_CLEARANCE_M, |(d, _, _)| d)
+    }
+}
+
+/// How far a level release backs off [m] before the retreat, and how far out it slides
+/// level [m], both from the grasp.
+const BACK_OFF_M: f64 = 0.01;
+const SLIDE_OUT_M: f64 = 0.08;
+/// The level slide-out's path: a station every [`SLIDE_STEP_M`] of the way out, each moved
+/// at most [`SLIDE_TURN_M`] sideways and up or down from the last, at most
+/// [`SLIDE_MAX_OFFSET_M`] off the straight line; clearance counts up to [`SLIDE_CLEARANCE_M`].
+const SLIDE_STEP_M: f64 = 0.0025;
+const SLIDE_TURN_M: f64 = 0.001;
+const SLIDE_MAX_OFFSET_M: f64 = 0.012;
+pub(crate) const SLIDE_CLEARANCE_M: f64 = 0.01;
+
+/// The way a level release slides the open hand out of a handle: along `level` (the
+/// approach without its vertical part) from the grasp, each station moved sideways and
+/// vertically to where the open hand is farthest from the object (`clearance(wrist)`, up to
+/// [`SLIDE_CLEARANCE_M`]). A straight slide keeps the hand where its fingers closed, so
+/// fingers curled through a handle rub the handle and the body all the way out (the
+/// built-in teapot's slid 0.3-2.7 mm from them and turned the released pot by 25°); the
+/// stations follow the middle of the gap instead. Greedy from the grasp, one station at a
+/// time: of the 3 x 3 moves of [`SLIDE_TURN_M`] the clearest, ties to the nearer the
+/// straight line.
+struct SlidePath {
+    grasp: Isometry3<f64>,
+    level: Vector3<f64>,
+    /// Offset of each station from the straight line [m], world frame.
+    offsets: Vec<Vector3<f64>>,
+}
+
+impl SlidePath {
+    fn new(
+        grasp: Isometry3<f64>,
+        level: Vector3<f64>,
+        clearance: &mut dyn FnMut(&Isometry3<f64>) -> f64,
+    ) -> SlidePath {
+        let side = Vector3::z().cross(&level);
+        let side = side.try_normalize(1e-12).unwrap_or_else(Vector3::x);
+        let stations = (SLIDE_OUT_M / SLIDE_STEP_M).round() as usize;
+        let mut path = SlidePath {
+            grasp,
+            level,
+            offsets: vec![Vector3::zeros()],
+        };
+        for k in 1..=stations {
+            let last = path.offsets[k - 1];
+            let mut best = (f64::NEG_INFINITY, last);
+            for (i, j) in (-1..=1).flat_map(|i| (-1..=1).map(move |j| (i, j))) {
+                let offset = last + (side * i as f64 + Vector3::z() * j as f64) * SLIDE_TURN_M;
+                if offset.dot(&side).abs() > SLIDE_MAX_OFFSET_M + 1e-12
+                    || offset.z.abs() > SLIDE_MAX_OFFSET_M + 1e-12
+                {
+                    continue;
+                }
+                let wrist = path.at(k as f64 * SLIDE_STEP_M, &offset);
+                let score = clearance(&wrist).min(SLIDE_CLEARANCE_M) - 1e-3 * offset.norm();
+                if score > best.0 {
+                    best = (score, offset);
+                }
+            }
+            path.offsets.push(best.1);
+        }
+        path
+    }
+
+    fn at(&self, dist: f64, offset: &Vector3<f64>) -> Isometry3<f64> {
+        Isometry3::from_parts(
+            Translation3::from(self.grasp.translation.vector + self.level * dist + offset),
+            self.grasp.rotation,
+        )
+    }
+
+    /// The wrist `dist` [m] out along the path (clamped to its ends).
+    fn pose(&self, dist: f64) -> Isometry3<f64> {
+        let x = (dist / SLIDE_STEP_M).clamp(0.0, (self.offsets.len() - 1) as f64);
+        let i = (x.floor() as usize).min(self.offsets.len().saturating_sub(2));
+        let u = x - i as f64;
+        let offset = match self.offsets.get(i + 1) {
+            Some(next) => self.offsets[i].lerp(next, u),
+            None => self.offsets[i],
+        };
+        self.at(dist, &offset)
+    }
+}
+
 /// The hand of the post-contact frames (release, retreat, rest) about the object's final
-/// pose `end`: wrist pose and joints of each frame.
+/// pose `end`: wrist pose and joints of each frame. `clearance(object, wrist)` is how far
+/// the open hand is from the object (for a level release's slide-out, [`SlidePath`]).
 fn post_contact_hand(
     spec: &SynthSpec,
     template: &GraspTemplate,
     g: &Grasp,
     approach: &Vector3<f64>,
     end: &Isometry3<f64>,
+    clearance: &mut dyn FnMut(&Isometry3<f64>, &Isometry3<f64>) -> f64,
 ) -> Vec<(Isometry3<f64>, Vec<f64>)> {
     let t = &spec.timing;
     let mut out = Vec::with_capacity(t.release + t.retreat + t.rest);
     let end_grasp = end * g.wrist_in_object;
     // The approach without its vertical part, for a level release.
-    let level = template.level_release.then(|| {
+    let slide = template.level_release.then(|| {
         let dir = end.rotation * approach;
-        Vector3::new(dir.x, dir.y, 0.0)
+        let level = Vector3::new(dir.x, dir.y, 0.0)
             .try_normalize(1e-12)
-            .unwrap_or_else(Vector3::zeros)
+            .unwrap_or_else(Vector3::zeros);
+        SlidePath::new(end_grasp, level, &mut |w| clearance(end, w))
     });
-    let level_pose = |level: Vector3<f64>, dist: f64| {
-        Isometry3::from_parts(
-            Translation3::from(end_grasp.translation.vector + level * dist),
-            end_grasp.rotation,
-        )
-    };
-    let backed = match level {
-        Some(level) => level_pose(level, 0.01),
-        None => offset_pose(g, approach, end, 0.01, 0.0),
-    };
-    // A level release opens the fingers over the first half, then backs off.
-    let (open_by, back_from) = if level.is_some() {
+    // A level release opens the fingers over the first half, then backs off along its path.
+    let (open_by, back_from) = if slide.is_some() {
         (0.5, 0.5)
     } else {
         (1.0, 0.0)
     };
+    let backed = offset_pose(g, approach, end, BACK_OFF_M, 0.0);
     for k in 1..=t.release {
         let u = k as f64 / t.release as f64;
         let s = min_jerk((u - back_from) / (1.0 - back_from));
-        out.push((
-            blend(&end_grasp, &backed, s),
-            lerp_q(&g.q, &g.q_open, min_jerk(u / open_by)),
-        ));
+        let wrist = match &slide {
+            Some(path) => path.pose(BACK_OFF_M * s),
+            None => blend(&end_grasp, &backed, s),
+        };
+        out.push((wrist, lerp_q(&g.q, &g.q_open, min_jerk(u / open_by))));
     }
     let far_end = offset_pose(g, approach, end, spec.retreat_m, -template.turn_rad);
-    // A level release slides out 8 cm level (the fingers clear of a handle) over the first
-    // half of the retreat, then goes to the retreat pose.
-    let level_out = level.map(|level| level_pose(level, 0.08));
+    // A level release slides out (the fingers clear of a handle) over the first half of the
+    // retreat, then goes to the retreat pose.
     for k in 1..=t.retreat {
         let u = k as f64 / t.retreat as f64;
-        let pose = match &level_out {
-            Some(o) if u <= 0.5 => blend(&backed, o, min_jerk(u / 0.5)),
-            Some(o) => blend(o, &far_end, min_jerk((u - 0.5) / 0.5)),
+        let pose = match &slide {
+            Some(path) if u <= 0.5 => {
+                path.pose(BACK_OFF_M + (SLIDE_OUT_M - BACK_OFF_M) * min_jerk(u / 0.5))
+            }
+            Some(path) => blend(&path.pose(SLIDE_OUT_M), &far_end, min_jerk((u - 0.5) / 0.5)),
             None => blend(&backed, &far_end, min_jerk(u)),
         };
         out.push((pose, g.q_open.clone()));
@@ -899,7 +1023,7 @@ mod tests {
             nudges: 0,
         };
         let start = Isometry3::translation(0.0, 0.0, 1.0);
-        let frames = build_frames(&spec, &start, &g, &template, &[]);
+        let frames = build_frames(&spec, &start, &g, &template, &[], &mut |_, _| 1.0);
         assert_eq!(frames.len(), spec.timing.frames());
         (spec, g, frames)
     }
@@ -941,6 +1065,50 @@ mod tests {
         assert!((wrist_in_object(mid) - g.wrist_in_object.translation.vector).norm() > 1e-3);
     }
 
+    /// A pole of 8 mm radius stands 3 mm beside the straight slide-out, 4 cm out: the path
+    /// steps around it (sideways, not up: rising does not help beside a vertical pole), a
+    /// turn at most a station, within the offset bound; with nothing near, it stays on the
+    /// straight line.
+    #[test]
+    fn the_slide_out_steps_around_what_is_beside_it() {
+        let grasp = Isometry3::translation(0.1, 0.2, 1.0);
+        let level = -Vector3::y();
+        // z × level = +x: the pole is on the +x side.
+        let pole = Vector3::new(0.103, 0.16, 0.0);
+        let mut clearance = |w: &Isometry3<f64>| {
+            let p = w.translation.vector - pole;
+            p.xy().norm() - 0.008
+        };
+        let path = SlidePath::new(grasp, level, &mut clearance);
+        assert_eq!(path.offsets.len(), 33);
+        assert_eq!(path.pose(0.0), grasp);
+        let mut closest = f64::INFINITY;
+        for (k, o) in path.offsets.iter().enumerate() {
+            assert!(o.z.abs() < 1e-12, "station {k} moves up or down: {o}");
+            assert!(o.x.abs() <= SLIDE_MAX_OFFSET_M + 1e-12, "station {k}: {o}");
+            if k > 0 {
+                let turn = (o - path.offsets[k - 1]).abs().max();
+                assert!(turn <= SLIDE_TURN_M + 1e-12, "station {k} turns {turn}");
+            }
+            let at = path.pose(k as f64 * SLIDE_STEP_M);
+            let out = (at.translation.vector - grasp.translation.vector).dot(&level);
+            assert!((out - k as f64 * SLIDE_STEP_M).abs() < 1e-12);
+            closest = closest.min(clearance(&at));
+        }
+        // Straight on, the hand would be 5 mm inside the pole; around it, it stays clear.
+        assert!(
+            clearance(&path.pose(0.04)) > 0.0,
+            "{}",
+            clearance(&path.pose(0.04))
+        );
+        assert!(closest > 0.0, "{closest}");
+        assert!(path.offsets[16].x < -0.004, "{}", path.offsets[16]);
+        // Far from the pole, the straight line.
+        assert_eq!(path.offsets[1], Vector3::zeros());
+        let path = SlidePath::new(grasp, level, &mut |_| 1.0);
+        assert!(path.offsets.iter().all(|o| *o == Vector3::zeros()));
+    }
+
     #[test]
     fn the_teapot_hand_opens_then_slides_out_level() {
         let (spec, g, frames) = frames_of(ObjectKind::Teapot, Motion::Pour);
@@ -967,7 +1135,8 @@ mod tests {
         }
         let backed = frames[first + t.release - 1].wrist.translation.vector - grasp;
         assert!((backed.norm() - 0.01).abs() < 1e-9, "{backed}");
-        // It slides out 8 cm level over the first half of the retreat, then rises.
+        // It slides out 8 cm level over the first half of the retreat (nothing is near, so
+        // straight), then rises.
         let first = first + t.release;
         for k in 1..=t.retreat / 2 {
             let moved = frames[first + k - 1].wrist.translation.vector - grasp;

@@ -119,8 +119,10 @@ pub struct GraspTemplate {
     /// The release opens the fingers first, then backs the hand off along the approach
     /// without its vertical part, and the retreat slides it 8 cm out that way before it
     /// rises (a hand hooked through a handle slides out level: the approach's rise would
-    /// lift the object by its handle); `false`: the fingers open as the hand backs off along
-    /// the approach, and it retreats along the approach.
+    /// lift the object by its handle), stepping sideways and up or down by up to 12 mm to
+    /// where the open hand is farthest from the object (`SlidePath` in the synthesis);
+    /// `false`: the fingers open as the hand backs off along the approach, and it retreats
+    /// along the approach.
     pub level_release: bool,
 }
 
