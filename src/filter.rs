@@ -32,6 +32,10 @@ pub struct Criteria {
     /// first contact frame (`physics.onset`); a trajectory that shoves the object as it
     /// grasps it passes physics yet teaches a policy to shove.
     pub max_onset_mm: Option<f64>,
+    /// Largest turn [deg] of the released object by the hand (`physics.release.turn`, when
+    /// the hand still touches the object once it has turned 5°): a retreat that spins the
+    /// put-down object passes physics yet teaches a policy to knock it.
+    pub max_release_turn_deg: Option<f64>,
     /// Reject items whose push-out hit the narrow-gap failure. Default true.
     pub reject_narrow_gap: bool,
 }
@@ -46,6 +50,7 @@ impl Default for Criteria {
             max_waypoint_error_mm: None,
             max_timewarp_discrepancy: None,
             max_onset_mm: None,
+            max_release_turn_deg: None,
             reject_narrow_gap: true,
         }
     }
@@ -116,6 +121,47 @@ pub fn filter(dir: &Path, criteria: &Criteria) -> Result<Filtered> {
         }
     }
     Ok(result)
+}
+
+/// The criteria on the physics report's diagnostics (onset, release turn), as reasons.
+fn physics_figures(report: &Report, c: &Criteria, reasons: &mut Vec<String>) {
+    if let Some(max) = c.max_onset_mm {
+        match report.physics.as_ref().and_then(|p| p.onset_error_mm()) {
+            Some(mm) if mm > max => {
+                reasons.push(format!(
+                    "onset {mm:.1} mm > {max} mm (the grasp moved the object that far as it closed)"
+                ));
+            }
+            Some(_) => {}
+            None => reasons.push(
+                "no onset in the report (no physics, no contact segment, or a report written before onsets)".into(),
+            ),
+        }
+    }
+    if let Some(max) = c.max_release_turn_deg {
+        let physics = report.physics.as_ref();
+        match (physics, physics.and_then(|p| p.release_turn())) {
+            (None, _) => reasons.push("no release turn in the report (no physics)".into()),
+            (Some(_), Some(t)) => {
+                if let Some((touch, links)) = t.by_hand.filter(|_| t.deg > max) {
+                    let with = if links.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" with {}", links.join(", "))
+                    };
+                    reasons.push(format!(
+                        "the hand turned the released object {:.1}° > {max}° (at frame {}; it touches it up to frame {touch}{with})",
+                        t.deg, t.frame
+                    ));
+                }
+            }
+            // Nothing after the last contact frame, or a replay stopped at a drop.
+            (Some(p), None) if !p.has_release() => {}
+            (Some(_), None) => reasons.push(
+                "no release turn in the report (a report written before release turns)".into(),
+            ),
+        }
+    }
 }
 
 fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
@@ -199,19 +245,7 @@ fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
                 m.timewarp_discrepancy
             ));
         }
-        if let Some(max) = c.max_onset_mm {
-            match report.physics.as_ref().and_then(|p| p.onset_error_mm()) {
-                Some(mm) if mm > max => {
-                    reasons.push(format!(
-                        "onset {mm:.1} mm > {max} mm (the grasp moved the object that far as it closed)"
-                    ));
-                }
-                Some(_) => {}
-                None => reasons.push(
-                    "no onset in the report (no physics, no contact segment, or a report written before onsets)".into(),
-                ),
-            }
-        }
+        physics_figures(&report, c, &mut reasons);
         if c.reject_narrow_gap
             && let Some(gap) = &report.constraints.narrow_gap
         {

@@ -22,7 +22,7 @@
 //!   the hand pushed the released object ([`find_push`]): the carry held, the retreat did not
 //!   clear the object.
 
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use rapier3d_f64::parry::bounding_volume::{Aabb, BoundingVolume};
 use rapier3d_f64::parry::math::Pose;
 use rapier3d_f64::parry::query;
@@ -139,6 +139,40 @@ pub fn find_push(
         last_touch_frame,
         touching_links: Vec::new(),
     })
+}
+
+/// The hand is taken to turn the released object when it still touches it once the object
+/// has turned this far from its pose at the last contact frame [rad] (5°; see [`find_turn`]).
+pub const TURNED_WHILE_TOUCHED_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0;
+
+/// The object's largest turn after the last contact frame `released`, from its rotation
+/// there: the angle [rad], its frame, and the last frame up to it at which the hand touches
+/// the object once it has turned [`TURNED_WHILE_TOUCHED_RAD`], i.e. the hand turned it
+/// (`None`: it turned by itself, as a round object rolls a little as it settles; the frame
+/// of the largest turn is `released` when it never turns).
+pub fn find_turn(
+    released: usize,
+    rotations: &[UnitQuaternion<f64>],
+    touching: &[bool],
+) -> (f64, usize, Option<usize>) {
+    let Some(at_release) = rotations.get(released) else {
+        return (0.0, released, None);
+    };
+    let turns: Vec<f64> = rotations[released + 1..]
+        .iter()
+        .map(|r| angle_between(r, at_release))
+        .collect();
+    let (mut turn, mut frame) = (0.0, released);
+    for (k, &a) in turns.iter().enumerate() {
+        if a > turn {
+            (turn, frame) = (a, released + 1 + k);
+        }
+    }
+    let touch = (released + 1..=frame).rev().find(|&f| {
+        touching.get(f).copied().unwrap_or(false)
+            && turns[f - released - 1] >= TURNED_WHILE_TOUCHED_RAD
+    });
+    (turn, frame, touch)
 }
 
 /// A shape placed in the world for a parry query; `owner` indexes a name list.
@@ -477,5 +511,40 @@ mod tests {
         assert_eq!(find_push(4, &err, &touching, &params), None);
         // Released at the last frame: nothing after it.
         assert_eq!(find_push(8, &err, &touching, &params), None);
+    }
+
+    /// Released at frame 2, the object turns 4° a frame about the vertical to 24° at frame
+    /// 8, then settles back to 20°.
+    fn turned_replay() -> Vec<UnitQuaternion<f64>> {
+        let deg = [0.0, 0.0, 0.0, 4.0, 8.0, 12.0, 16.0, 20.0, 24.0, 20.0];
+        deg.iter()
+            .map(|d: &f64| UnitQuaternion::from_axis_angle(&Vector3::z_axis(), d.to_radians()))
+            .collect()
+    }
+
+    #[test]
+    fn a_turn_after_the_release_is_found_with_the_hand_that_turned_it() {
+        let rotations = turned_replay();
+        let deg = |(a, f, t): (f64, usize, Option<usize>)| (a.to_degrees(), f, t);
+        // The hand touches it through frame 6 (16° turned): the hand turned it.
+        let touching = [
+            true, true, true, true, true, true, true, false, false, false,
+        ];
+        let (a, f, t) = deg(find_turn(2, &rotations, &touching));
+        assert!((a - 24.0).abs() < 1e-9, "{a}");
+        assert_eq!((f, t), (8, Some(6)));
+        // Only the fingers brushing it as they open (4° turned, under 5°): it turned by itself.
+        let touching = [
+            true, true, true, true, false, false, false, false, false, false,
+        ];
+        assert_eq!(find_turn(2, &rotations, &touching).2, None);
+        // Touched only after its largest turn: not the hand's turn.
+        let mut touching = [false; 10];
+        touching[9] = true;
+        assert_eq!(find_turn(2, &rotations, &touching).2, None);
+        // Never turning, or released at the last frame: no turn.
+        let still = vec![UnitQuaternion::identity(); 10];
+        assert_eq!(find_turn(2, &still, &[true; 10]), (0.0, 2, None));
+        assert_eq!(find_turn(9, &rotations, &[true; 10]), (0.0, 9, None));
     }
 }

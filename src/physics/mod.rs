@@ -319,7 +319,7 @@ pub use margin::{Margin, margin};
 pub use params::{Actuation, HandModel, Params};
 pub use report::{
     Carry, Drop, DropCause, GraspHold, Grip, Onset, Penetration, Penetrations, PerFrame,
-    PhysicsReport, Pushed, Release, ReplayInfo, Stability, Timing, Tracking,
+    PhysicsReport, Pushed, Release, ReplayInfo, Stability, Timing, Touch, Tracking, Turn,
 };
 
 use crate::geometry::Mesh;
@@ -696,6 +696,13 @@ fn check_replay(
     if let Some(p) = release.as_mut().and_then(|r| r.pushed.as_mut()) {
         p.touching_links = links_at(p.last_touch_frame);
     }
+    if let Some(t) = release
+        .as_mut()
+        .and_then(|r| r.turn.as_mut())
+        .and_then(|t| t.by_hand.as_mut())
+    {
+        t.links = links_at(t.frame);
+    }
 
     let replayed = trace.grip.len();
     let grip = segment.filter(|s| s.start < replayed).map(|s| {
@@ -785,6 +792,16 @@ fn release(
             && nearest
                 .as_ref()
                 .is_some_and(|(_, d)| *d <= params.support_gap_m);
+        let rotations: Vec<_> = trace.object.iter().map(|p| p.rotation).collect();
+        let (turn, turn_frame, touch) = checks::find_turn(s.end, &rotations, touching);
+        let turn = Turn {
+            deg: turn.to_degrees(),
+            frame: turn_frame,
+            by_hand: touch.map(|frame| Touch {
+                frame,
+                links: Vec::new(),
+            }),
+        };
         Release {
             frame: s.end,
             rests_on_support: rests,
@@ -793,6 +810,7 @@ fn release(
             final_motion_mm: motion * 1e3,
             final_speed_m_s: trace.speed_m_s[last],
             pushed: checks::find_push(s.end, position_error, touching, params),
+            turn: Some(turn),
         }
     })
 }

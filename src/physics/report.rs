@@ -148,6 +148,33 @@ pub struct Release {
     /// The hand moved the released object off its plan (see [`Pushed`]); `None` otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pushed: Option<Pushed>,
+    /// The object's largest turn after the release (absent in reports written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn: Option<Turn>,
+}
+
+/// The object's largest turn after the release: its rotation from its simulated pose at the
+/// last contact frame. A diagnostic, no limit of its own (`filter --max-release-turn-deg`):
+/// a retreat that spins the put-down object stays within the tracking limits, and a round
+/// object the opening fingers roll 15-20° is no failure.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Turn {
+    pub deg: f64,
+    pub frame: usize,
+    /// When the hand turned it: the last frame up to `frame` at which the hand touches the
+    /// object once it has turned 5° ([`super::checks::find_turn`]), with the links touching
+    /// there. `None` when the object turned by itself (a round object rolling as it settles).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub by_hand: Option<Touch>,
+}
+
+/// The hand touching the object at a frame, and with which links.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Touch {
+    pub frame: usize,
+    /// The hand's links within touching reach of the object, in the robot's link order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<String>,
 }
 
 /// A released object the hand moved: after the last contact frame the object's position

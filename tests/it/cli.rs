@@ -247,6 +247,80 @@ fn filter_keeps_and_explains() {
             );
         }
     }
+    // The release turn: z's hand turned the released object 24.5°, w's turned by itself
+    // (no touch once it had turned 5°); y has no release (its replay stopped at the drop).
+    let turned = dir.path().join("turned");
+    for (name, by_hand) in [
+        ("y", None),
+        (
+            "z",
+            Some(serde_json::json!({"frame": 692, "links": ["left_finger"]})),
+        ),
+        ("w", Some(serde_json::Value::Null)),
+    ] {
+        let mut r = report.clone();
+        if let Some(by_hand) = by_hand {
+            r["physics"]["release"] = serde_json::json!({
+                "frame": 658, "rests_on_support": true, "final_motion_mm": 0.1,
+                "final_speed_m_s": 0.0,
+                "turn": {"deg": 24.5, "frame": 700, "by_hand": by_hand},
+            });
+        }
+        std::fs::create_dir_all(turned.join(name)).unwrap();
+        for f in std::fs::read_dir(out.join("y")).unwrap() {
+            let f = f.unwrap().path();
+            if f.is_file() {
+                std::fs::copy(&f, turned.join(name).join(f.file_name().unwrap())).unwrap();
+            }
+        }
+        std::fs::write(
+            turned.join(name).join("report.json"),
+            serde_json::to_vec(&r).unwrap(),
+        )
+        .unwrap();
+    }
+    for (limit, z_kept) in [(30.0, true), (20.0, false)] {
+        let o = dexwarp(&[
+            "filter",
+            turned.to_str().unwrap(),
+            "--out",
+            keep.to_str().unwrap(),
+            "--no-physics",
+            "--max-release-turn-deg",
+            &format!("{limit}"),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let kept = std::fs::read_to_string(&keep).unwrap();
+        for (name, expect) in [("y", true), ("w", true), ("z", z_kept)] {
+            let dropped = std::fs::read_to_string(dir.path().join("keep.dropped.csv")).unwrap();
+            assert_eq!(
+                kept.contains(&format!("/{name}/")),
+                expect,
+                "{name}: {kept} {dropped}"
+            );
+        }
+        if !z_kept {
+            let dropped = std::fs::read_to_string(dir.path().join("keep.dropped.csv")).unwrap();
+            let z = dropped.lines().find(|l| l.contains("/z/")).unwrap();
+            assert!(
+                z.contains("the hand turned the released object 24.5° > 20° (at frame 700; it touches it up to frame 692 with left_finger)"),
+                "{z}"
+            );
+        }
+    }
+    let o = dexwarp(&[
+        "filter",
+        turned.to_str().unwrap(),
+        "--out",
+        keep.to_str().unwrap(),
+        "--max-release-turn-deg",
+        "-3",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("angle in degrees > 0"),
+        "{}",
+        stderr(&o)
+    );
     let o = dexwarp(&[
         "filter",
         dir.path().join("empty").to_str().unwrap(),

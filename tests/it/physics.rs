@@ -761,9 +761,10 @@ fn committed_demos_verdicts() {
 /// fingers still in the handle, then moves 10 cm toward the pot instead of retreating (the
 /// frames after the release edited here). The report names the push, with frames that bracket it,
 /// instead of a bare position error, and the links that still touch the pot there: the
-/// fingers in its handle.
+/// fingers in its handle. Unedited, the pot stays put; slid straight out of the handle, the
+/// hand turns it, and the report's turn names the links.
 #[test]
-fn a_hand_that_pushes_the_released_teapot_is_reported_as_a_push() {
+fn a_hand_that_pushes_or_turns_the_released_teapot_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let demos = crate::fixtures::repo("scenes/demos");
     let mut demo: serde_json::Value =
@@ -774,6 +775,7 @@ fn a_hand_that_pushes_the_released_teapot_is_reported_as_a_push() {
     }
     let mesh = demos.join(demo["object"]["mesh"].as_str().unwrap());
     demo["object"]["mesh"] = mesh.to_str().unwrap().into();
+    let mut straight = demo.clone();
     let frames = demo["frames"].as_array_mut().unwrap();
     let last_contact = frames
         .iter()
@@ -843,5 +845,57 @@ fn a_hand_that_pushes_the_released_teapot_is_reported_as_a_push() {
             .iter()
             .any(|r| r.starts_with("object position error")),
         "{reasons:?}"
+    );
+    // Unedited, the hand slides out of the handle around it and leaves the pot as it put it
+    // down (a straight slide-out turned it 25°).
+    let out = dir.path().join("plain");
+    let o = crate::fixtures::dexwarp(&[
+        "validate",
+        demos.join("teapot.demo.json").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let release = &report["physics"]["release"];
+    assert!(f(&release["turn"]["deg"]) < 5.0, "{release}");
+    assert!(
+        release["turn"]["by_hand"].is_null() && release["pushed"].is_null(),
+        "{release}"
+    );
+
+    // Slid straight out instead (the wrist kept on the line from the grasp for the 45 frames
+    // after the release), the fingers drag the handle round: the pot turns, and the report
+    // says the hand did it and with which links.
+    let frames = straight["frames"].as_array_mut().unwrap();
+    let at_release = frames[last_contact]["wrist"]["position"].clone();
+    for f in &mut frames[last_contact + 1..=last_contact + 45] {
+        for axis in [0, 2] {
+            f["wrist"]["position"][axis] = at_release[axis].clone();
+        }
+    }
+    let path = dir.path().join("teapot_straight.demo.json");
+    std::fs::write(&path, serde_json::to_vec(&straight).unwrap()).unwrap();
+    let out = dir.path().join("straight");
+    let o = crate::fixtures::dexwarp(&[
+        "validate",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let turn = &report["physics"]["release"]["turn"];
+    assert!(f(&turn["deg"]) > 15.0, "{turn}");
+    let by = f(&turn["by_hand"]["frame"]);
+    assert!(
+        by > last_contact as f64 && by <= f(&turn["frame"]),
+        "{turn}"
+    );
+    assert!(
+        !turn["by_hand"]["links"].as_array().unwrap().is_empty(),
+        "{turn}"
     );
 }

@@ -226,6 +226,15 @@ pub fn positive_mm(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
+pub fn positive_deg(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!(
+            "expected a finite angle in degrees > 0, like 15; got {s:?}"
+        )),
+    }
+}
+
 pub fn non_negative(s: &str) -> std::result::Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),

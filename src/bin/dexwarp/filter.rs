@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use dexwarp::filter;
 
-use crate::args::{fraction, positive_mm};
+use crate::args::{fraction, positive_deg, positive_mm};
 
 /// Read the reports below DIR, keep what passes, and list why each of the rest was dropped.
 #[derive(Debug, Args)]
@@ -35,6 +35,10 @@ pub struct FilterArgs {
     /// the object by the first contact frame.
     #[arg(long, value_name = "MM", value_parser = positive_mm, allow_negative_numbers = true)]
     max_onset_mm: Option<f64>,
+    /// Drop items whose hand turned the released object more than this [deg] (the retreat
+    /// spun the put-down object).
+    #[arg(long, value_name = "DEG", value_parser = positive_deg, allow_negative_numbers = true)]
+    max_release_turn_deg: Option<f64>,
     /// Do not require a physics pass.
     #[arg(long)]
     no_physics: bool,
@@ -56,6 +60,7 @@ pub fn run(args: FilterArgs) -> Result<()> {
         max_waypoint_error_mm,
         max_timewarp,
         max_onset_mm,
+        max_release_turn_deg,
         no_physics,
         allow_narrow_gap,
         robust,
@@ -68,6 +73,7 @@ pub fn run(args: FilterArgs) -> Result<()> {
         max_waypoint_error_mm,
         max_timewarp_discrepancy: max_timewarp,
         max_onset_mm,
+        max_release_turn_deg,
         reject_narrow_gap: !allow_narrow_gap,
     };
     let result = filter::filter(&dir, &criteria)?;
