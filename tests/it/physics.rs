@@ -775,7 +775,7 @@ fn a_hand_that_pushes_or_turns_the_released_teapot_is_named() {
     }
     let mesh = demos.join(demo["object"]["mesh"].as_str().unwrap());
     demo["object"]["mesh"] = mesh.to_str().unwrap().into();
-    let mut straight = demo.clone();
+    let (plain, mut straight) = (demo.clone(), demo.clone());
     let frames = demo["frames"].as_array_mut().unwrap();
     let last_contact = frames
         .iter()
@@ -791,18 +791,21 @@ fn a_hand_that_pushes_or_turns_the_released_teapot_is_named() {
         f["wrist"] = wrist.clone();
         f["wrist"]["position"][0] = (x0 + 0.1 * s).into();
     }
-    let path = dir.path().join("teapot_push.demo.json");
-    std::fs::write(&path, serde_json::to_vec(&demo).unwrap()).unwrap();
-    let out = dir.path().join("out");
-    let o = crate::fixtures::dexwarp(&[
-        "validate",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    // Validates the demonstration `demo` (written as `name`), returns its report.
+    let validate = |demo: &serde_json::Value, name: &str| -> serde_json::Value {
+        let path = dir.path().join(format!("{name}.demo.json"));
+        std::fs::write(&path, serde_json::to_vec(demo).unwrap()).unwrap();
+        let out = dir.path().join(name);
+        let o = crate::fixtures::dexwarp(&[
+            "validate",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap()
+    };
+    let report = validate(&demo, "push");
     let p = &report["physics"];
     assert_eq!(p["verdict"], "fail");
     let release = &p["release"];
@@ -848,16 +851,7 @@ fn a_hand_that_pushes_or_turns_the_released_teapot_is_named() {
     );
     // Unedited, the hand slides out of the handle around it and leaves the pot as it put it
     // down (a straight slide-out turned it 25°).
-    let out = dir.path().join("plain");
-    let o = crate::fixtures::dexwarp(&[
-        "validate",
-        demos.join("teapot.demo.json").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let report = validate(&plain, "plain");
     let release = &report["physics"]["release"];
     assert!(f(&release["turn"]["deg"]) < 5.0, "{release}");
     assert!(
@@ -875,18 +869,7 @@ fn a_hand_that_pushes_or_turns_the_released_teapot_is_named() {
             f["wrist"]["position"][axis] = at_release[axis].clone();
         }
     }
-    let path = dir.path().join("teapot_straight.demo.json");
-    std::fs::write(&path, serde_json::to_vec(&straight).unwrap()).unwrap();
-    let out = dir.path().join("straight");
-    let o = crate::fixtures::dexwarp(&[
-        "validate",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", crate::fixtures::stderr(&o));
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let report = validate(&straight, "straight");
     let turn = &report["physics"]["release"]["turn"];
     assert!(f(&turn["deg"]) > 15.0, "{turn}");
     let by = f(&turn["by_hand"]["frame"]);
