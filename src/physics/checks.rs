@@ -20,7 +20,9 @@
 //!   the last [`Params::rest_window_s`]. When the object's largest position error comes
 //!   after the release and the hand touched it in between, the position error's reason says
 //!   the hand pushed the released object ([`find_push`]): the carry held, the retreat did not
-//!   clear the object.
+//!   clear the object. The object's largest turn after the release is reported with the
+//!   hand's links when the hand still touches it once it has turned 5° ([`find_turn`]); a
+//!   diagnostic with no limit (a round object rolls off the opening fingers).
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use rapier3d_f64::parry::bounding_volume::{Aabb, BoundingVolume};

@@ -837,14 +837,14 @@ const SLIDE_OUT_M: f64 = 0.08;
 const SLIDE_STEP_M: f64 = 0.0025;
 const SLIDE_TURN_M: f64 = 0.001;
 const SLIDE_MAX_OFFSET_M: f64 = 0.012;
-pub(crate) const SLIDE_CLEARANCE_M: f64 = 0.01;
+const SLIDE_CLEARANCE_M: f64 = 0.01;
 
 /// The way a level release slides the open hand out of a handle: along `level` (the
 /// approach without its vertical part) from the grasp, each station moved sideways and
 /// vertically to where the open hand is farthest from the object (`clearance(wrist)`, up to
 /// [`SLIDE_CLEARANCE_M`]). A straight slide keeps the hand where its fingers closed, so
 /// fingers curled through a handle rub the handle and the body all the way out (the
-/// built-in teapot's slid 0.3-2.7 mm from them and turned the released pot by 25°); the
+/// built-in teapot's slid 0.3-2.8 mm from them and turned the released pot by 25°); the
 /// stations follow the middle of the gap instead. Greedy from the grasp, one station at a
 /// time: of the 3 x 3 moves of [`SLIDE_TURN_M`] the clearest, ties to the nearer the
 /// straight line.
