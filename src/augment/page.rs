@@ -184,6 +184,10 @@ fn baseline_section(b: &BaselineStats) -> String {
             "grasp onset: the simulated object's distance from its plan as the carry starts (the approach and the closing moved it)",
             &b.onset_error_mm,
         ),
+        (
+            "release turn [°, not mm]: how far the hand turned the released object (0 where it turned by itself)",
+            &b.release_turn_by_hand_deg,
+        ),
     ] {
         h.push_str(&format!(
             "<tr><td>{what}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",

@@ -289,6 +289,7 @@ fn fill(row: &mut Row, report: &Report, spec: &Spec, dir: &Path, stretched: &[Ra
         row.grasp_slide_mm = m.grasp_slide_mm.as_ref().map(|p| p.warped);
         row.grasp_shift_mm = m.grasp_shift_mm;
         row.onset_error_mm = onset_error_mm(report);
+        row.release_turn_by_hand_deg = release_turn_by_hand_deg(report);
         row.robust = robust(report);
     }
 }
@@ -301,6 +302,13 @@ fn robust(report: &Report) -> Option<bool> {
 /// The object's position error when the contact segment starts; `None` without one.
 fn onset_error_mm(report: &Report) -> Option<f64> {
     report.physics.as_ref().and_then(|p| p.onset_error_mm())
+}
+
+/// How far the hand turned the released object [deg]: the largest turn after the release
+/// when the hand turned it, 0 when it turned by itself; `None` without a release.
+fn release_turn_by_hand_deg(report: &Report) -> Option<f64> {
+    let t = report.physics.as_ref()?.release_turn()?;
+    Some(if t.by_hand.is_some() { t.deg } else { 0.0 })
 }
 
 fn fill_baseline(
@@ -319,6 +327,7 @@ fn fill_baseline(
         row.baseline_grasp_slide_mm = report.metrics.grasp_slide_mm.as_ref().map(|p| p.warped);
         row.baseline_grasp_shift_mm = report.metrics.grasp_shift_mm;
         row.baseline_onset_error_mm = onset_error_mm(report);
+        row.baseline_release_turn_by_hand_deg = release_turn_by_hand_deg(report);
         row.baseline_robust = robust(report);
     }
 }

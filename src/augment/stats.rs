@@ -91,6 +91,13 @@ pub struct Row {
     pub onset_error_mm: Option<f64>,
     #[serde(default)]
     pub baseline_onset_error_mm: Option<f64>,
+    /// How far each hand turned the released object (`physics.release.turn`, when the hand
+    /// still touches it once it has turned 5°; 0 when it turned by itself, empty without a
+    /// release) [deg].
+    #[serde(default)]
+    pub release_turn_by_hand_deg: Option<f64>,
+    #[serde(default)]
+    pub baseline_release_turn_by_hand_deg: Option<f64>,
     /// With `--margin`: whether the sample's physics holds under every condition of the
     /// robustness margin (lower friction, heavier object; `false` when the nominal replay
     /// fails; empty without a margin).
@@ -347,6 +354,9 @@ pub struct BaselineStats {
     /// How far each hand's approach and closing moved the object before the carry [mm].
     #[serde(default)]
     pub onset_error_mm: HandPair,
+    /// How far each hand turned the released object [deg] (0 where it turned by itself).
+    #[serde(default)]
+    pub release_turn_by_hand_deg: HandPair,
     /// Each hand's failures over the same samples, by [`Cause`].
     #[serde(default)]
     pub failed_by_cause: CausePair,
@@ -583,6 +593,10 @@ impl BaselineStats {
         b.grasp_slide_mm = pair(|r| r.grasp_slide_mm, |r| r.baseline_grasp_slide_mm);
         b.grasp_shift_mm = pair(|r| r.grasp_shift_mm, |r| r.baseline_grasp_shift_mm);
         b.onset_error_mm = pair(|r| r.onset_error_mm, |r| r.baseline_onset_error_mm);
+        b.release_turn_by_hand_deg = pair(
+            |r| r.release_turn_by_hand_deg,
+            |r| r.baseline_release_turn_by_hand_deg,
+        );
         Some(b)
     }
 }

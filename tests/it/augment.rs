@@ -643,6 +643,23 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
             assert_eq!(shift, rep["metrics"]["grasp_shift_mm"].as_f64().unwrap());
             assert!(shift.is_finite() && shift >= 0.0, "{c}: {shift}");
         }
+        // And how far each hand turned the released object: the report's release turn when
+        // the hand turned it, 0 when the object turned by itself, empty without a release.
+        for (c, rep) in [
+            ("release_turn_by_hand_deg", &own),
+            ("baseline_release_turn_by_hand_deg", &report),
+        ] {
+            let turn = &rep["physics"]["release"]["turn"];
+            let expect = if turn.is_null() {
+                None
+            } else if turn["by_hand"].is_null() {
+                Some(0.0)
+            } else {
+                turn["deg"].as_f64()
+            };
+            let cell = &r[col(c)];
+            assert_eq!(cell.parse::<f64>().ok(), expect, "{c}: {cell:?} {turn}");
+        }
         // And how far each hand's approach and closing moved the object: the position error
         // its physics report gives at the contact segment's first frame, also in its frames.
         for (c, rep, frames) in [
@@ -677,9 +694,14 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
     for m in ["grasp_slide_mm", "grasp_shift_mm", "onset_error_mm"] {
         assert_eq!(b[m]["contact_ik"]["n"].as_u64(), Some(ran), "{m}: {b}");
     }
+    let turned = b["release_turn_by_hand_deg"]["contact_ik"]["n"]
+        .as_u64()
+        .unwrap();
+    assert!(turned > 0 && turned <= ran, "{b}");
     let page = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(page.contains("grasp shift"));
     assert!(page.contains("grasp onset"));
+    assert!(page.contains("release turn"));
     assert!(page.contains("Contact IK against the SE(3) baseline"));
     assert!(page.contains("failed, by cause"));
 
