@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use crate::model::json::write_atomic;
 use crate::model::report::Report;
+use crate::physics::Turn;
 use crate::{Error, Result};
 
 /// What an item must meet to be kept. `None` leaves a check out.
@@ -140,18 +141,18 @@ fn physics_figures(report: &Report, c: &Criteria, reasons: &mut Vec<String>) {
     }
     if let Some(max) = c.max_release_turn_deg {
         let physics = report.physics.as_ref();
-        match (physics, physics.and_then(|p| p.release_turn())) {
+        match (physics, physics.and_then(Turn::of)) {
             (None, _) => reasons.push("no release turn in the report (no physics)".into()),
             (Some(_), Some(t)) => {
-                if let Some((touch, links)) = t.by_hand.filter(|_| t.deg > max) {
-                    let with = if links.is_empty() {
+                if let Some(by) = t.by_hand.as_ref().filter(|_| t.deg > max) {
+                    let with = if by.links.is_empty() {
                         String::new()
                     } else {
-                        format!(" with {}", links.join(", "))
+                        format!(" with {}", by.links.join(", "))
                     };
                     reasons.push(format!(
-                        "the hand turned the released object {:.1}° > {max}° (at frame {}; it touches it up to frame {touch}{with})",
-                        t.deg, t.frame
+                        "the hand turned the released object {:.1}° > {max}° (at frame {}; it touches it up to frame {}{with})",
+                        t.deg, t.frame, by.frame
                     ));
                 }
             }

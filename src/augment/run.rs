@@ -31,6 +31,7 @@ use crate::model::json::{read_json, write_atomic, write_json_atomic};
 use crate::model::report::{REPORT_FORMAT, Report};
 use crate::model::{Demo, WarpConfig};
 use crate::output::progress;
+use crate::physics::Turn;
 use crate::pipeline::{self, HandMethod, Inputs, Loaded, Options, PhysicsOptions};
 use crate::{Error, Limits, Result};
 
@@ -307,8 +308,7 @@ fn onset_error_mm(report: &Report) -> Option<f64> {
 /// How far the hand turned the released object [deg]: the largest turn after the release
 /// when the hand turned it, 0 when it turned by itself; `None` without a release.
 fn release_turn_by_hand_deg(report: &Report) -> Option<f64> {
-    let t = report.physics.as_ref()?.release_turn()?;
-    Some(if t.by_hand.is_some() { t.deg } else { 0.0 })
+    Turn::of(report.physics.as_ref()?).map(|t| t.by_hand_deg())
 }
 
 fn fill_baseline(

@@ -204,17 +204,6 @@ pub struct GuardSummary {
     pub max_depth_after_mm: f64,
 }
 
-/// The released object's largest turn from its pose at the last contact frame (the physics
-/// report's `release.turn`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ReleaseTurn {
-    pub deg: f64,
-    pub frame: usize,
-    /// When the hand turned it (still touched it once it had turned 5°): the last frame it
-    /// touches it and the links touching there.
-    pub by_hand: Option<(usize, Vec<String>)>,
-}
-
 /// Physics verdict summary.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhysicsSummary {
@@ -246,30 +235,6 @@ impl PhysicsSummary {
     /// the last contact frame and the replay did not stop at a drop.
     pub fn has_release(&self) -> bool {
         self.measures.get("release").is_some_and(|r| !r.is_null())
-    }
-
-    /// The released object's largest turn (`physics.release.turn`); `None` without a
-    /// release, or in a report written before release turns.
-    pub fn release_turn(&self) -> Option<ReleaseTurn> {
-        let t = self.measures.get("release")?.get("turn")?;
-        let by_hand = t.get("by_hand").filter(|b| !b.is_null()).map(|b| {
-            let frame = b.get("frame").and_then(|f| f.as_u64()).unwrap_or(0) as usize;
-            let links = b
-                .get("links")
-                .and_then(|l| l.as_array())
-                .map(|l| {
-                    l.iter()
-                        .filter_map(|n| n.as_str().map(String::from))
-                        .collect()
-                })
-                .unwrap_or_default();
-            (frame, links)
-        });
-        Some(ReleaseTurn {
-            deg: t.get("deg")?.as_f64()?,
-            frame: t.get("frame")?.as_u64()? as usize,
-            by_hand,
-        })
     }
 
     /// Whether the margin holds under every condition; `None` without a margin.

@@ -24,7 +24,7 @@
 //!   hand's links when the hand still touches it once it has turned 5° ([`find_turn`]); a
 //!   diagnostic with no limit (a round object rolls off the opening fingers).
 
-use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Vector3};
 use rapier3d_f64::parry::bounding_volume::{Aabb, BoundingVolume};
 use rapier3d_f64::parry::math::Pose;
 use rapier3d_f64::parry::query;
@@ -148,21 +148,21 @@ pub fn find_push(
 pub const TURNED_WHILE_TOUCHED_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0;
 
 /// The object's largest turn after the last contact frame `released`, from its rotation
-/// there: the angle [rad], its frame, and the last frame up to it at which the hand touches
+/// there (`object`: its simulated poses): the angle [rad], its frame, and the last frame up to it at which the hand touches
 /// the object once it has turned [`TURNED_WHILE_TOUCHED_RAD`], i.e. the hand turned it
 /// (`None`: it turned by itself, as a round object rolls a little as it settles; the frame
 /// of the largest turn is `released` when it never turns).
 pub fn find_turn(
     released: usize,
-    rotations: &[UnitQuaternion<f64>],
+    object: &[Isometry3<f64>],
     touching: &[bool],
 ) -> (f64, usize, Option<usize>) {
-    let Some(at_release) = rotations.get(released) else {
+    let Some(at_release) = object.get(released) else {
         return (0.0, released, None);
     };
-    let turns: Vec<f64> = rotations[released + 1..]
+    let turns: Vec<f64> = object[released + 1..]
         .iter()
-        .map(|r| angle_between(r, at_release))
+        .map(|p| angle_between(&p.rotation, &at_release.rotation))
         .collect();
     let (mut turn, mut frame) = (0.0, released);
     for (k, &a) in turns.iter().enumerate() {
@@ -517,10 +517,14 @@ mod tests {
 
     /// Released at frame 2, the object turns 4° a frame about the vertical to 24° at frame
     /// 8, then settles back to 20°.
-    fn turned_replay() -> Vec<UnitQuaternion<f64>> {
+    fn turned_replay() -> Vec<Isometry3<f64>> {
         let deg = [0.0, 0.0, 0.0, 4.0, 8.0, 12.0, 16.0, 20.0, 24.0, 20.0];
         deg.iter()
-            .map(|d: &f64| UnitQuaternion::from_axis_angle(&Vector3::z_axis(), d.to_radians()))
+            .map(|d: &f64| {
+                let r =
+                    nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), d.to_radians());
+                Isometry3::from_parts(Vector3::new(0.0, 0.0, 1.0).into(), r)
+            })
             .collect()
     }
 
@@ -545,7 +549,7 @@ mod tests {
         touching[9] = true;
         assert_eq!(find_turn(2, &rotations, &touching).2, None);
         // Never turning, or released at the last frame: no turn.
-        let still = vec![UnitQuaternion::identity(); 10];
+        let still = vec![Isometry3::identity(); 10];
         assert_eq!(find_turn(2, &still, &[true; 10]), (0.0, 2, None));
         assert_eq!(find_turn(9, &rotations, &[true; 10]), (0.0, 9, None));
     }

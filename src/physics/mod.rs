@@ -792,8 +792,7 @@ fn release(
             && nearest
                 .as_ref()
                 .is_some_and(|(_, d)| *d <= params.support_gap_m);
-        let rotations: Vec<_> = trace.object.iter().map(|p| p.rotation).collect();
-        let (turn, turn_frame, touch) = checks::find_turn(s.end, &rotations, touching);
+        let (turn, turn_frame, touch) = checks::find_turn(s.end, &trace.object, touching);
         let turn = Turn {
             deg: turn.to_degrees(),
             frame: turn_frame,

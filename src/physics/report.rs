@@ -168,6 +168,25 @@ pub struct Turn {
     pub by_hand: Option<Touch>,
 }
 
+impl Turn {
+    /// The release turn a written report's physics summary holds (`release.turn`); `None`
+    /// without a release, or in a report written before release turns.
+    pub fn of(summary: &PhysicsSummary) -> Option<Turn> {
+        let turn = summary.measures.get("release")?.get("turn")?;
+        serde_json::from_value(turn.clone()).ok()
+    }
+
+    /// How far the hand turned the object [deg]: the turn when the hand turned it, 0 when
+    /// the object turned by itself.
+    pub fn by_hand_deg(&self) -> f64 {
+        if self.by_hand.is_some() {
+            self.deg
+        } else {
+            0.0
+        }
+    }
+}
+
 /// The hand touching the object at a frame, and with which links.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Touch {

@@ -899,13 +899,11 @@ impl SlidePath {
 
     /// The wrist `dist` [m] out along the path (clamped to its ends).
     fn pose(&self, dist: f64) -> Isometry3<f64> {
-        let x = (dist / SLIDE_STEP_M).clamp(0.0, (self.offsets.len() - 1) as f64);
-        let i = (x.floor() as usize).min(self.offsets.len().saturating_sub(2));
-        let u = x - i as f64;
-        let offset = match self.offsets.get(i + 1) {
-            Some(next) => self.offsets[i].lerp(next, u),
-            None => self.offsets[i],
-        };
+        // `new` makes 33 stations, so there is always a next one.
+        let last = self.offsets.len() - 1;
+        let x = (dist / SLIDE_STEP_M).clamp(0.0, last as f64);
+        let i = (x.floor() as usize).min(last - 1);
+        let offset = self.offsets[i].lerp(&self.offsets[i + 1], x - i as f64);
         self.at(dist, &offset)
     }
 }

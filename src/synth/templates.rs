@@ -239,7 +239,7 @@ fn human_mug() -> GraspTemplate {
 /// the relaxed turn, which would sweep the fingers through the bar. It is in place before the
 /// fingers close, and slides out level after they open: fingers closing on the move dragged
 /// the pot 17.7 mm before the lift, backing off with the approach's rise lifted the
-/// released pot by its handle, and sliding out straight kept the curled fingers 0.3-2.7 mm
+/// released pot by its handle, and sliding out straight kept the curled fingers 0.3-2.8 mm
 /// from the handle and the body, which turned the released pot by 25°.
 fn human_teapot() -> GraspTemplate {
     GraspTemplate {
