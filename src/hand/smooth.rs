@@ -198,65 +198,70 @@ pub fn hold_grasp(
     Ok(())
 }
 
-/// Where the held grasp comes nearer a barrier than the per-frame solution did, the
-/// per-frame solution comes back: at every frame `t` of `range` with `keep[t - start]`, the
-/// hand is `per_frame`'s, and the frames within `frames` of it blend from the held grasp to
-/// it in the object's frame with a weight falling linearly to 0 (translation and joints
-/// linearly, rotation by nlerp). Returns the frames changed.
+/// Where the held grasp comes too near a barrier, the per-frame solution comes back as far
+/// as the barrier asks: `share[t - start]` is the share of the per-frame hand frame `t` of
+/// `range` needs (0 = the held grasp, 1 = the per-frame solution; see [`blend_toward`]).
+/// A share `s` at frame `k` reaches the frames within `frames` of it with a weight falling
+/// linearly to 0, `s · (1 − |t − k|/(frames + 1))`; a frame takes the largest it is asked.
+/// Moving the hand only as far as it must keeps the grasp: a hand that slides along a
+/// carried object drags it along. Returns the frames changed.
 pub fn release_held(
     hand: &mut HandPath,
     per_frame: &HandPath,
     objects: &[Isometry3<f64>],
     range: RangeInclusive<usize>,
-    keep: &[bool],
+    share: &[f64],
     frames: usize,
 ) -> usize {
     let (a, b) = (*range.start(), *range.end());
-    if a > b || b >= hand.len() || keep.len() != b - a + 1 || per_frame.len() != hand.len() {
+    if a > b || b >= hand.len() || share.len() != b - a + 1 || per_frame.len() != hand.len() {
         return 0;
     }
-    // Distance of each frame to the nearest kept frame, one pass each way.
-    let m = keep.len();
-    let mut near = vec![usize::MAX; m];
-    let mut last = None;
-    for i in 0..m {
-        if keep[i] {
-            last = Some(i);
-        }
-        if let Some(k) = last {
-            near[i] = i - k;
-        }
-    }
-    last = None;
-    for i in (0..m).rev() {
-        if keep[i] {
-            last = Some(i);
-        }
-        if let Some(k) = last {
-            near[i] = near[i].min(k - i);
+    let m = share.len();
+    let mut weight = vec![0.0_f64; m];
+    for (k, &s) in share.iter().enumerate().filter(|(_, s)| **s > 0.0) {
+        for (i, w) in weight
+            .iter_mut()
+            .enumerate()
+            .take((k + frames).min(m - 1) + 1)
+            .skip(k.saturating_sub(frames))
+        {
+            let fall = 1.0 - i.abs_diff(k) as f64 / (frames as f64 + 1.0);
+            *w = w.max(s.min(1.0) * fall);
         }
     }
-    let dof = hand.dof;
+    let mut q = vec![0.0; hand.dof];
     let mut changed = 0;
-    for t in a..=b {
-        if near[t - a] > frames {
-            continue;
-        }
-        let w = 1.0 - near[t - a] as f64 / (frames as f64 + 1.0);
-        let held = objects[t].inverse() * hand.wrists[t];
-        let own = objects[t].inverse() * per_frame.wrists[t];
-        let rel = Isometry3::from_parts(
-            Translation3::from(held.translation.vector.lerp(&own.translation.vector, w)),
-            held.rotation.nlerp(&own.rotation, w),
-        );
-        hand.wrists[t] = objects[t] * rel;
-        for j in 0..dof {
-            let (h, o) = (hand.joints[t * dof + j], per_frame.joints[t * dof + j]);
-            hand.joints[t * dof + j] = h + w * (o - h);
-        }
+    for t in (a..=b).filter(|t| weight[t - a] > 0.0) {
+        let wrist = blend_toward(hand, per_frame, &objects[t], t, weight[t - a], &mut q);
+        hand.wrists[t] = wrist;
+        hand.joints[t * hand.dof..(t + 1) * hand.dof].copy_from_slice(&q);
         changed += 1;
     }
     changed
+}
+
+/// Frame `t`'s hand a share `w` of the way from `held` to `per_frame`, in the object's frame
+/// (`object` is the object's pose at `t`): wrist translation and joints linearly, wrist
+/// rotation by nlerp. Returns the wrist; the joints are written to `q`.
+pub fn blend_toward(
+    held: &HandPath,
+    per_frame: &HandPath,
+    object: &Isometry3<f64>,
+    t: usize,
+    w: f64,
+    q: &mut [f64],
+) -> Isometry3<f64> {
+    let own = object.inverse() * per_frame.wrists[t];
+    let rel = object.inverse() * held.wrists[t];
+    let rel = Isometry3::from_parts(
+        Translation3::from(rel.translation.vector.lerp(&own.translation.vector, w)),
+        rel.rotation.nlerp(&own.rotation, w),
+    );
+    for ((v, h), o) in q.iter_mut().zip(held.q(t)).zip(per_frame.q(t)) {
+        *v = h + w * (o - h);
+    }
+    object * rel
 }
 
 /// Stage 5c: no step at the ends of the contact segment. Inside `range` the hand is the

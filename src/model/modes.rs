@@ -96,8 +96,8 @@ pub enum GraspMode {
     PerFrame,
     /// One grasp for the whole segment: the average of the frames' IK solutions in the
     /// object's frame, placed on the object at every frame (`hand::smooth::hold_grasp`),
-    /// except near a barrier the per-frame solution kept clear of
-    /// (`hand::smooth::release_held`). Default.
+    /// except near a barrier, where the hand moves toward the per-frame solution only as far
+    /// as the hand clearance asks (`hand::smooth::release_held`). Default.
     #[default]
     Held,
 }

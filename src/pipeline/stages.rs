@@ -5,6 +5,8 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
 
+use nalgebra::Isometry3;
+
 use super::{Inputs, Options, StageParams, checks};
 use crate::geometry::ObjectSdf;
 use crate::geometry::shape::CollisionShape;
@@ -184,8 +186,17 @@ pub(super) fn contact_ik(
         })
         .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
         if let Some(per_frame) = per_frame {
-            let keep = nearer_barriers(robot, shapes, &hand, &per_frame, range.clone());
-            smooth::release_held(&mut hand, &per_frame, &objects, range.clone(), &keep, ease);
+            let clearance = config.params.hand_clearance_m;
+            let share = release_shares(
+                robot,
+                shapes,
+                &hand,
+                &per_frame,
+                &objects,
+                range.clone(),
+                clearance,
+            );
+            smooth::release_held(&mut hand, &per_frame, &objects, range.clone(), &share, ease);
         }
     }
     // Stage 5c: no jump between the IK hand and the rigid transfer at the segment's ends:
@@ -214,26 +225,53 @@ pub(super) fn contact_ik(
 /// hinge (5 mm) plus room.
 const HELD_BARRIER_REACH_M: f64 = 0.01;
 
-/// The frames of `range` where the held grasp `held` comes nearer a barrier (within
-/// [`HELD_BARRIER_REACH_M`]) than the per-frame solution did: there the per-frame solution
-/// comes back ([`smooth::release_held`]).
-fn nearer_barriers(
+/// Halvings of the share's interval in [`release_shares`]: 2⁻¹⁰ of the way between the two
+/// hands, under 0.02 mm for the 11 mm a per-frame hand moved off a held grasp beside a wall.
+const SHARE_BISECTIONS: usize = 10;
+
+/// The share of the per-frame solution each frame of `range` needs
+/// ([`smooth::release_held`]): 0 where the held grasp `held` keeps `clearance` from every
+/// barrier (or comes no nearer than `per_frame` did); elsewhere the least share, to 2⁻¹⁰, that
+/// takes the hand to `clearance`, or as far as the per-frame solution got when that is nearer.
+/// The per-frame IK keeps its barrier hinge's reach (5 mm) where it can; the held grasp need
+/// only keep the clearance the hand keeps outside the contact segment.
+fn release_shares(
     robot: &Robot,
     shapes: &[CollisionShape],
     held: &HandPath,
     per_frame: &HandPath,
+    objects: &[Isometry3<f64>],
     range: std::ops::RangeInclusive<usize>,
-) -> Vec<bool> {
+    clearance: f64,
+) -> Vec<f64> {
     let links = crate::hand::pushout::LinkClearance::new(robot, shapes, HELD_BARRIER_REACH_M);
     let mut poses = robot.new_link_poses();
-    let mut distance = |hand: &HandPath, t: usize| {
-        robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut poses);
+    let mut distance = |wrist: &Isometry3<f64>, q: &[f64]| {
+        robot.forward_kinematics(wrist, q, &mut poses);
         links
             .nearest(&poses)
             .map_or(HELD_BARRIER_REACH_M, |(d, _, _)| d)
     };
+    let mut q = vec![0.0; held.dof];
     range
-        .map(|t| distance(held, t) < distance(per_frame, t) - 1e-4)
+        .map(|t| {
+            let own = distance(&per_frame.wrists[t], per_frame.q(t));
+            let goal = clearance.min(own) - 1e-4;
+            if distance(&held.wrists[t], held.q(t)) >= goal {
+                return 0.0;
+            }
+            let (mut lo, mut hi) = (0.0, 1.0);
+            for _ in 0..SHARE_BISECTIONS {
+                let mid = 0.5 * (lo + hi);
+                let wrist = smooth::blend_toward(held, per_frame, &objects[t], t, mid, &mut q);
+                if distance(&wrist, &q) >= goal {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            hi
+        })
         .collect()
 }
 

@@ -464,9 +464,9 @@ fn a_held_grasp_is_one_pose_in_the_objects_frame() {
 }
 
 /// Where a held grasp must give way (a barrier), the per-frame solution comes back at that
-/// frame and blends into the held grasp over the neighbouring frames.
+/// frame as far as asked and blends into the held grasp over the neighbouring frames.
 #[test]
-fn a_held_grasp_gives_way_to_the_per_frame_hand_where_asked() {
+fn a_held_grasp_gives_way_to_the_per_frame_hand_as_far_as_asked() {
     let n = 40;
     let objects: Vec<Isometry3<f64>> = (0..n)
         .map(|t| Isometry3::translation(0.01 * t as f64, 0.0, 0.9))
@@ -477,17 +477,53 @@ fn a_held_grasp_gives_way_to_the_per_frame_hand_where_asked() {
         per_frame.push(o * Isometry3::translation(0.1, 0.0, 0.05), &[0.4]);
         held.push(o * Isometry3::translation(0.1, 0.0, 0.02), &[0.2]);
     }
-    let mut keep = vec![false; 20];
-    keep[10] = true; // frame 20
-    let changed = smooth::release_held(&mut held, &per_frame, &objects, 10..=29, &keep, 4);
+    let z = |h: &HandPath, t: usize| (objects[t].inverse() * h.wrists[t]).translation.z;
+
+    // All the way at frame 20.
+    let mut hand = held.clone();
+    let mut share = vec![0.0; 20];
+    share[10] = 1.0; // frame 20
+    let changed = smooth::release_held(&mut hand, &per_frame, &objects, 10..=29, &share, 4);
     assert_eq!(changed, 9);
-    let z = |t: usize| (objects[t].inverse() * held.wrists[t]).translation.z;
-    assert!((z(20) - 0.05).abs() < 1e-12);
-    assert!((held.q(20)[0] - 0.4).abs() < 1e-12);
+    assert!((z(&hand, 20) - 0.05).abs() < 1e-12);
+    assert!((hand.q(20)[0] - 0.4).abs() < 1e-12);
     // One frame away: 4/5 of the way; five frames away: the held grasp.
-    assert!((z(21) - (0.02 + 0.8 * 0.03)).abs() < 1e-12, "{}", z(21));
-    assert!((z(19) - z(21)).abs() < 1e-12);
-    assert!((z(25) - 0.02).abs() < 1e-12 && (z(15) - 0.02).abs() < 1e-12);
+    assert!(
+        (z(&hand, 21) - (0.02 + 0.8 * 0.03)).abs() < 1e-12,
+        "{}",
+        z(&hand, 21)
+    );
+    assert!((z(&hand, 19) - z(&hand, 21)).abs() < 1e-12);
+    assert!((z(&hand, 25) - 0.02).abs() < 1e-12 && (z(&hand, 15) - 0.02).abs() < 1e-12);
+
+    // Part of the way: 0.4 at frame 20, 0.3 at frame 22; each frame takes the larger ask.
+    let mut hand = held.clone();
+    share[10] = 0.4;
+    share[12] = 0.3;
+    smooth::release_held(&mut hand, &per_frame, &objects, 10..=29, &share, 4);
+    let expect = |w: f64| 0.02 + w * 0.03;
+    assert!(
+        (z(&hand, 20) - expect(0.4)).abs() < 1e-12,
+        "{}",
+        z(&hand, 20)
+    );
+    assert!((hand.q(20)[0] - (0.2 + 0.4 * 0.2)).abs() < 1e-12);
+    assert!(
+        (z(&hand, 21) - expect(0.32)).abs() < 1e-12,
+        "{}",
+        z(&hand, 21)
+    );
+    assert!(
+        (z(&hand, 22) - expect(0.3)).abs() < 1e-12,
+        "{}",
+        z(&hand, 22)
+    );
+    assert!(
+        (z(&hand, 23) - expect(0.24)).abs() < 1e-12,
+        "{}",
+        z(&hand, 23)
+    );
+    assert!((z(&hand, 27) - 0.02).abs() < 1e-12 && (z(&hand, 15) - 0.02).abs() < 1e-12);
 }
 
 /// Smoothing the IK hand costs little contact accuracy ("drift", paper Table 3).
