@@ -373,7 +373,7 @@ fn one_small_decrease_does_not_end_a_frame() {
     assert!(three.d_c_mm <= first.d_c_mm, "{summary}");
 }
 
-/// Beside the low wall of teapot_pour_cups_wall the held hook grasp would come 4 mm into the
+/// Beside the low wall of teapot_pour_cups_wall the held hook grasp would come 5.3 mm into the
 /// wall while the pot turns back from the pour. The per-frame solution (the IK's barrier
 /// term) keeps 5 mm from it by sliding 11 mm up the handle, and a hand sliding on a carried
 /// pot drags it along: taken in full, the pot slipped 30.3 mm off its path. The grasp now
