@@ -396,20 +396,17 @@ fn a_held_grasp_yields_to_a_wall_only_as_far_as_the_clearance_asks() {
     let slide = |r: &pipeline::WarpRun| r.report.metrics.grasp_slide_mm.as_ref().unwrap().warped;
     let asked = run(0.002, true);
     let physics = asked.report.physics.as_ref().unwrap();
-    let measure = |section: &str, key: &str| physics.measures[section][key].as_f64().unwrap();
-    let in_wall = physics.measures["penetration"]["hand_barrier"]["max_mm"]
-        .as_f64()
-        .unwrap();
+    let in_wall = physics.measures["penetration"]["hand_barrier"]["max_mm"].as_f64();
+    let max_error = physics.measures["tracking"]["max_position_error_mm"].as_f64();
     let wide = run(0.008, false);
     eprintln!(
-        "grasp slide: 2 mm clearance {:.2} mm, 8 mm {:.2} mm; {} (max position error {:.1} mm); hand in the wall {in_wall:.2} mm",
+        "grasp slide: 2 mm clearance {:.2} mm, 8 mm {:.2} mm; {} (max position error {max_error:?} mm); hand in the wall {in_wall:?} mm",
         slide(&asked),
         slide(&wide),
         physics.verdict,
-        measure("tracking", "max_position_error_mm"),
     );
     assert_eq!(physics.verdict, "pass", "{:?}", physics.reasons);
-    assert_eq!(in_wall, 0.0);
+    assert_eq!(in_wall, Some(0.0));
     assert!(slide(&asked) > 1.0, "the wall asks the grasp to yield");
     assert!(
         slide(&wide) > slide(&asked) + 1.0,
