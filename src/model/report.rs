@@ -169,6 +169,22 @@ pub struct IkSummary {
     /// "Smoothing without pressing in").
     #[serde(default)]
     pub smoothing_guard: Option<GuardSummary>,
+    /// Where the held grasp yielded to a barrier (`params.grasp: "held"` with barriers;
+    /// docs/METHOD.md "A held grasp"); `null` otherwise.
+    #[serde(default)]
+    pub held_yield: Option<HeldYield>,
+}
+
+/// How far the held grasp moved toward the per-frame solution to keep the hand clear of the
+/// barriers.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HeldYield {
+    /// Frames where the hand is not the held grasp (those asked and their neighbours).
+    pub frames: usize,
+    /// Largest share of the way to the per-frame solution a frame asked (0-1).
+    pub max_share: f64,
+    /// Largest move of the wrist off the held grasp, in the object's frame [mm].
+    pub max_move_mm: f64,
 }
 
 impl IkSummary {

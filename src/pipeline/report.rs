@@ -120,6 +120,7 @@ pub(super) fn warp_report(
                 max_depth_before_mm: g.max_depth_before_mm,
                 max_depth_after_mm: g.max_depth_after_mm,
             }),
+            held_yield: ik.held_yield.clone(),
         });
         for r in &mut frames {
             if let Some(f) = r

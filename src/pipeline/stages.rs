@@ -14,6 +14,7 @@ use crate::hand::ik;
 use crate::hand::{HandPath, baseline as rigid, guard as hand_guard, smooth};
 use crate::metrics;
 use crate::model::provenance::Provenance;
+use crate::model::report::HeldYield;
 use crate::model::{Demo, GraspMode, Objective};
 use crate::physics;
 use crate::robot::Robot;
@@ -38,6 +39,9 @@ pub(super) struct IkRun {
     pub tolerance_mm: f64,
     /// The object's distance field and the tolerance [m] (non-penetrating objective only).
     pub guard_with: Option<(Arc<ObjectSdf>, f64)>,
+    /// Where the held grasp yielded to a barrier; `None` for a per-frame grasp or without
+    /// barriers.
+    pub held_yield: Option<HeldYield>,
 }
 
 /// The warp plan of the inputs (contact segment, output frames), refused before any work
@@ -176,6 +180,7 @@ pub(super) fn contact_ik(
     let ease = ((EASE_S * demo.fps).round() as usize).max(1);
     let (mut hand, _) = smooth::run(&raw, range.clone(), &smooth::Params::default())
         .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
+    let mut held_yield = None;
     if config.params.grasp == GraspMode::Held {
         let path = object.path();
         let objects: Vec<_> = (0..path.len()).map(|t| path.pose(t)).collect();
@@ -196,7 +201,22 @@ pub(super) fn contact_ik(
                 range.clone(),
                 clearance,
             );
-            smooth::release_held(&mut hand, &per_frame, &objects, range.clone(), &share, ease);
+            let held = hand.clone();
+            let frames =
+                smooth::release_held(&mut hand, &per_frame, &objects, range.clone(), &share, ease);
+            let max_move_mm = range
+                .clone()
+                .map(|t| {
+                    let (a, b) = (held.wrists[t], hand.wrists[t]);
+                    let (a, b) = (objects[t].inverse() * a, objects[t].inverse() * b);
+                    (a.translation.vector - b.translation.vector).norm() * 1e3
+                })
+                .fold(0.0, f64::max);
+            held_yield = Some(HeldYield {
+                frames,
+                max_share: share.iter().copied().fold(0.0, f64::max),
+                max_move_mm,
+            });
         }
     }
     // Stage 5c: no jump between the IK hand and the rigid transfer at the segment's ends:
@@ -217,6 +237,7 @@ pub(super) fn contact_ik(
         stats,
         tolerance_mm,
         guard_with,
+        held_yield,
     };
     Ok((hand, ik))
 }

@@ -414,4 +414,41 @@ fn a_held_grasp_yields_to_a_wall_only_as_far_as_the_clearance_asks() {
         slide(&wide),
         slide(&asked)
     );
+    // The report says where and how far the grasp yielded.
+    let held = |r: &pipeline::WarpRun| r.report.ik.as_ref().unwrap().held_yield.clone().unwrap();
+    let (a, w) = (held(&asked), held(&wide));
+    eprintln!("yield: 2 mm {a:?}; 8 mm {w:?}");
+    assert!(
+        a.frames > 0 && a.max_share > 0.0 && a.max_share < 1.0,
+        "{a:?}"
+    );
+    assert!(
+        w.max_share > a.max_share && w.max_move_mm > a.max_move_mm,
+        "{a:?} vs {w:?}"
+    );
+    assert!(a.max_move_mm > 1.0, "{a:?}");
+}
+
+/// Where the held grasp keeps its clearance from every barrier, it does not yield: the
+/// report says so (and nothing without barriers or with a per-frame grasp).
+#[test]
+fn a_held_grasp_clear_of_the_barriers_does_not_yield() {
+    let run = |name: &str, grasp: dexwarp::model::GraspMode| {
+        let config = repo(&format!("scenes/configs/{name}.json"));
+        let mut inputs = Inputs::load(&config, None, &Limits::default()).unwrap();
+        inputs.config.params.grasp = grasp;
+        let options = Options::new(HandMethod::Contact)
+            .threshold_mm(Some(3.5))
+            .physics(None);
+        let run = pipeline::warp(&inputs, &options).unwrap();
+        run.report.ik.unwrap().held_yield
+    };
+    use dexwarp::model::GraspMode::{Held, PerFrame};
+    let clear = run("mug_pass_wall", Held).expect("a held grasp with a barrier");
+    assert_eq!(
+        (clear.frames, clear.max_share, clear.max_move_mm),
+        (0, 0.0, 0.0)
+    );
+    assert_eq!(run("fryingpan_island", Held), None, "no barrier");
+    assert_eq!(run("mug_pass_wall", PerFrame), None, "no held grasp");
 }
