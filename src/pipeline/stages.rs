@@ -192,31 +192,16 @@ pub(super) fn contact_ik(
         .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
         if let Some(per_frame) = per_frame {
             let clearance = config.params.hand_clearance_m;
-            let share = release_shares(
+            held_yield = Some(yield_to_barriers(
                 robot,
                 shapes,
-                &hand,
+                &mut hand,
                 &per_frame,
                 &objects,
                 range.clone(),
                 clearance,
-            );
-            let held = hand.clone();
-            let frames =
-                smooth::release_held(&mut hand, &per_frame, &objects, range.clone(), &share, ease);
-            let max_move_mm = range
-                .clone()
-                .map(|t| {
-                    let (a, b) = (held.wrists[t], hand.wrists[t]);
-                    let (a, b) = (objects[t].inverse() * a, objects[t].inverse() * b);
-                    (a.translation.vector - b.translation.vector).norm() * 1e3
-                })
-                .fold(0.0, f64::max);
-            held_yield = Some(HeldYield {
-                frames,
-                max_share: share.iter().copied().fold(0.0, f64::max),
-                max_move_mm,
-            });
+                ease,
+            ));
         }
     }
     // Stage 5c: no jump between the IK hand and the rigid transfer at the segment's ends:
@@ -245,6 +230,41 @@ pub(super) fn contact_ik(
 /// Reach within which a held grasp is checked against the barriers [m]: the IK's barrier
 /// hinge (5 mm) plus room.
 const HELD_BARRIER_REACH_M: f64 = 0.01;
+
+/// Moves the held grasp `hand` toward `per_frame` where a barrier asks
+/// ([`release_shares`], [`smooth::release_held`]) and says how far it went.
+#[allow(clippy::too_many_arguments)]
+fn yield_to_barriers(
+    robot: &Robot,
+    shapes: &[CollisionShape],
+    hand: &mut HandPath,
+    per_frame: &HandPath,
+    objects: &[Isometry3<f64>],
+    range: std::ops::RangeInclusive<usize>,
+    clearance: f64,
+    ease: usize,
+) -> HeldYield {
+    let share = release_shares(
+        robot,
+        shapes,
+        hand,
+        per_frame,
+        objects,
+        range.clone(),
+        clearance,
+    );
+    let held = hand.clone();
+    let frames = smooth::release_held(hand, per_frame, objects, range.clone(), &share, ease);
+    let on_object = |h: &HandPath, t: usize| (objects[t].inverse() * h.wrists[t]).translation;
+    let max_move_mm = range
+        .map(|t| (on_object(hand, t).vector - on_object(&held, t).vector).norm() * 1e3)
+        .fold(0.0, f64::max);
+    HeldYield {
+        frames,
+        max_share: share.iter().copied().fold(0.0, f64::max),
+        max_move_mm,
+    }
+}
 
 /// Halvings of the share's interval in [`release_shares`]: 2⁻¹⁰ of the way between the two
 /// hands, under 0.02 mm for the 11 mm a per-frame hand moved off a held grasp beside a wall.
