@@ -31,7 +31,7 @@ use rapier3d_f64::parry::query;
 use rapier3d_f64::parry::shape::Shape;
 
 use super::params::Params;
-use super::report::{Drop, DropCause, Grip, Penetration, Pushed, Stability, Tracking};
+use super::report::{Drop, DropCause, Grip, Penetration, Pushed, Stability, Touch, Tracking, Turn};
 use super::world::{GripSample, ReplayWorld};
 use crate::geometry::hull::ObjectShape;
 use crate::geometry::shape::CollisionShape;
@@ -147,34 +147,44 @@ pub fn find_push(
 /// has turned this far from its pose at the last contact frame [rad] (5°; see [`find_turn`]).
 pub const TURNED_WHILE_TOUCHED_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0;
 
-/// The object's largest turn after the last contact frame `released`, from its rotation
-/// there (`object`: its simulated poses): the angle [rad], its frame, and the last frame up to it at which the hand touches
-/// the object once it has turned [`TURNED_WHILE_TOUCHED_RAD`], i.e. the hand turned it
-/// (`None`: it turned by itself, as a round object rolls a little as it settles; the frame
-/// of the largest turn is `released` when it never turns).
-pub fn find_turn(
-    released: usize,
-    object: &[Isometry3<f64>],
-    touching: &[bool],
-) -> (f64, usize, Option<usize>) {
+/// The object's largest turn after the last contact frame `released` ([`Turn`]), from its
+/// rotation there (`object`: its simulated poses), with the last frame up to it at which the
+/// hand touches the object once it has turned [`TURNED_WHILE_TOUCHED_RAD`]: the hand turned
+/// it (`by_hand` is `None` when it turned by itself, as a round object rolls a little as it
+/// settles; its links are left for the caller). The turn's frame is `released` when it never
+/// turns.
+pub fn find_turn(released: usize, object: &[Isometry3<f64>], touching: &[bool]) -> Turn {
     let Some(at_release) = object.get(released) else {
-        return (0.0, released, None);
+        return Turn {
+            frame: released,
+            ..Turn::default()
+        };
     };
     let turns: Vec<f64> = object[released + 1..]
         .iter()
         .map(|p| angle_between(&p.rotation, &at_release.rotation))
         .collect();
-    let (mut turn, mut frame) = (0.0, released);
-    for (k, &a) in turns.iter().enumerate() {
-        if a > turn {
-            (turn, frame) = (a, released + 1 + k);
-        }
+    let (k, turn) = argmax(&turns);
+    let frame = if turn > 0.0 {
+        released + 1 + k
+    } else {
+        released
+    };
+    let by_hand = (released + 1..=frame)
+        .rev()
+        .find(|&f| {
+            touching.get(f).copied().unwrap_or(false)
+                && turns[f - released - 1] >= TURNED_WHILE_TOUCHED_RAD
+        })
+        .map(|frame| Touch {
+            frame,
+            links: Vec::new(),
+        });
+    Turn {
+        deg: turn.to_degrees(),
+        frame,
+        by_hand,
     }
-    let touch = (released + 1..=frame).rev().find(|&f| {
-        touching.get(f).copied().unwrap_or(false)
-            && turns[f - released - 1] >= TURNED_WHILE_TOUCHED_RAD
-    });
-    (turn, frame, touch)
 }
 
 /// A shape placed in the world for a parry query; `owner` indexes a name list.
@@ -531,26 +541,29 @@ mod tests {
     #[test]
     fn a_turn_after_the_release_is_found_with_the_hand_that_turned_it() {
         let rotations = turned_replay();
-        let deg = |(a, f, t): (f64, usize, Option<usize>)| (a.to_degrees(), f, t);
+        let found = |released: usize, rotations: &[Isometry3<f64>], touching: &[bool]| {
+            let t = find_turn(released, rotations, touching);
+            (t.deg, t.frame, t.by_hand.map(|b| b.frame))
+        };
         // The hand touches it through frame 6 (16° turned): the hand turned it.
         let touching = [
             true, true, true, true, true, true, true, false, false, false,
         ];
-        let (a, f, t) = deg(find_turn(2, &rotations, &touching));
+        let (a, f, t) = found(2, &rotations, &touching);
         assert!((a - 24.0).abs() < 1e-9, "{a}");
         assert_eq!((f, t), (8, Some(6)));
         // Only the fingers brushing it as they open (4° turned, under 5°): it turned by itself.
         let touching = [
             true, true, true, true, false, false, false, false, false, false,
         ];
-        assert_eq!(find_turn(2, &rotations, &touching).2, None);
+        assert_eq!(found(2, &rotations, &touching).2, None);
         // Touched only after its largest turn: not the hand's turn.
         let mut touching = [false; 10];
         touching[9] = true;
-        assert_eq!(find_turn(2, &rotations, &touching).2, None);
+        assert_eq!(found(2, &rotations, &touching).2, None);
         // Never turning, or released at the last frame: no turn.
         let still = vec![Isometry3::identity(); 10];
-        assert_eq!(find_turn(2, &still, &[true; 10]), (0.0, 2, None));
-        assert_eq!(find_turn(9, &rotations, &[true; 10]), (0.0, 9, None));
+        assert_eq!(found(2, &still, &[true; 10]), (0.0, 2, None));
+        assert_eq!(found(9, &rotations, &[true; 10]), (0.0, 9, None));
     }
 }

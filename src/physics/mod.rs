@@ -792,15 +792,6 @@ fn release(
             && nearest
                 .as_ref()
                 .is_some_and(|(_, d)| *d <= params.support_gap_m);
-        let (turn, turn_frame, touch) = checks::find_turn(s.end, &trace.object, touching);
-        let turn = Turn {
-            deg: turn.to_degrees(),
-            frame: turn_frame,
-            by_hand: touch.map(|frame| Touch {
-                frame,
-                links: Vec::new(),
-            }),
-        };
         Release {
             frame: s.end,
             rests_on_support: rests,
@@ -809,7 +800,7 @@ fn release(
             final_motion_mm: motion * 1e3,
             final_speed_m_s: trace.speed_m_s[last],
             pushed: checks::find_push(s.end, position_error, touching, params),
-            turn: Some(turn),
+            turn: Some(checks::find_turn(s.end, &trace.object, touching)),
         }
     })
 }
