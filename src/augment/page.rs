@@ -139,11 +139,14 @@ fn num(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".into(), |x| format!("{x:.digits$}"))
 }
 
+/// What the McNemar column says, as its header's tooltip.
+const MCNEMAR: &str = "exact two-sided McNemar test of the samples only one hand keeps: the chance of a split at least this uneven if either hand were as likely to keep such a sample; below 0.05 the yields differ by more than the draw of samples explains";
+
 /// Contact IK against the SE(3) baseline on the same samples (`--compare-baseline`).
 fn baseline_section(b: &BaselineStats) -> String {
     let p = &b.paired;
     let mut h = format!(
-        "<h2>Contact IK against the SE(3) baseline</h2>\n<p class=\"note\">every sample that ran, run again with the rigidly transferred hand on the same object trajectory and judged by the same rule</p>\n<table><tr><th>baseline: ran</th><th>kept</th><th>failed</th><th>yield</th><th>both kept</th><th>only contact IK</th><th>only baseline</th><th>neither</th></tr>\n<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
+        "<h2>Contact IK against the SE(3) baseline</h2>\n<p class=\"note\">every sample that ran, run again with the rigidly transferred hand on the same object trajectory and judged by the same rule</p>\n<table><tr><th>baseline: ran</th><th>kept</th><th>failed</th><th>yield</th><th>both kept</th><th>only contact IK</th><th>only baseline</th><th>neither</th><th title=\"{MCNEMAR}\">McNemar p</th></tr>\n<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
         b.ran,
         b.passed,
         b.failed,
@@ -151,18 +154,20 @@ fn baseline_section(b: &BaselineStats) -> String {
         p.both,
         p.only_contact_ik,
         p.only_baseline,
-        p.neither
+        p.neither,
+        p.p_text()
     );
     if let (Some(r), Some(p)) = (&b.robust, &b.paired_robust) {
         h.push_str(&format!(
-            "<p class=\"note\">robust: kept, and the robustness margin holds under every condition (friction ×0.75 and ×0.5, mass ×1.5)</p>\n<table><tr><th>baseline: robust</th><th>yield</th><th>of its kept</th><th>both robust</th><th>only contact IK</th><th>only baseline</th><th>neither</th></tr>\n<tr><td>{}</td><td>{:.1} %</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
+            "<p class=\"note\">robust: kept, and the robustness margin holds under every condition (friction ×0.75 and ×0.5, mass ×1.5)</p>\n<table><tr><th>baseline: robust</th><th>yield</th><th>of its kept</th><th>both robust</th><th>only contact IK</th><th>only baseline</th><th>neither</th><th title=\"{MCNEMAR}\">McNemar p</th></tr>\n<tr><td>{}</td><td>{:.1} %</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
             r.kept,
             r.yield_ * 100.0,
             r.share_of_kept * 100.0,
             p.both,
             p.only_contact_ik,
             p.only_baseline,
-            p.neither
+            p.neither,
+            p.p_text()
         ));
     }
     h.push_str("<table><tr><th>same samples [mm]</th><th>n</th><th>contact IK median</th><th>p90</th><th>baseline median</th><th>p90</th></tr>\n");

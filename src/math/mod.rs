@@ -1,5 +1,5 @@
 //! Pure numerical kernels: B-splines, Savitzky-Golay, rotations, type conversions,
-//! quantiles.
+//! quantiles, the exact sign test.
 //!
 //! Nothing here knows about demonstrations or robots; every kernel has its own unit tests.
 
@@ -8,3 +8,4 @@ pub mod convert;
 pub mod quantile;
 pub mod rotation;
 pub mod savgol;
+pub mod sign_test;

@@ -10,6 +10,7 @@ use std::fmt::Write as _;
 
 use super::{ROBUSTNESS_CONFIG, Reproduction, RunRecord, THRESHOLDS_MM};
 use crate::Result;
+use crate::math::sign_test::{format_p, mcnemar_exact_p};
 use crate::model::json::write_atomic;
 use crate::model::report::Report;
 
@@ -385,8 +386,11 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
         Some(w) => format!("{} ({:.1})", w.frame, w.d_c_mm),
         None => "--".into(),
     };
+    let (mut passes, mut robust) = (Vec::new(), Vec::new());
     for c in configs(rep) {
         let (b, k) = (ok(rep, &c, "baseline"), ok(rep, &c, &lm(3.5)));
+        passes.push((passed(k), passed(b)));
+        robust.push((is_robust(k), is_robust(b)));
         let stretched = |r: Option<&Report>| match r {
             Some(r) if r.metrics.stretched_frames == 0 => "--".to_string(),
             r => cell(r.and_then(|r| r.metrics.d_c_stretched_mm), 1),
@@ -410,7 +414,41 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
             margin(k),
         ]);
     }
+    t.note = format!(
+        "{} {} {}",
+        t.note,
+        paired_sentence("Physics passes", &passes),
+        paired_sentence("Robust passes", &robust)
+    );
     t
+}
+
+/// `Physics passes: contact IK 19, baseline 17 of 19; only contact IK 2, only the baseline
+/// 0 (exact McNemar p = 0.50: ...).` for `(contact IK, baseline)` outcomes per config.
+fn paired_sentence(what: &str, outcomes: &[(bool, bool)]) -> String {
+    let count = |f: fn(&(bool, bool)) -> bool| outcomes.iter().filter(|o| f(o)).count() as u64;
+    let (ik, base) = (count(|o| o.0), count(|o| o.1));
+    let (only_ik, only_base) = (count(|o| o.0 && !o.1), count(|o| !o.0 && o.1));
+    format!(
+        "{what}: contact IK {ik}, baseline {base} of {}; only contact IK {only_ik}, only the baseline {only_base} (exact McNemar p = {}: below 0.05 the difference is unlikely to be chance).",
+        outcomes.len(),
+        format_p(mcnemar_exact_p(only_ik, only_base))
+    )
+}
+
+/// Physics ran and passed.
+fn passed(r: Option<&Report>) -> bool {
+    r.and_then(|r| r.physics.as_ref())
+        .is_some_and(|p| p.verdict == "pass")
+}
+
+/// Physics passed and the margin holds under every condition.
+fn is_robust(r: Option<&Report>) -> bool {
+    r.and_then(|r| r.physics.as_ref())
+        .and_then(|p| p.margin())
+        .and_then(|m| m.get("robust"))
+        .and_then(|v| v.as_bool())
+        == Some(true)
 }
 
 /// The object's position error at the first contact frame (`physics.onset`) [mm], for a
@@ -689,5 +727,19 @@ mod tests {
         assert_eq!(margin(Some(&failed)), "--");
         assert_eq!(margin(Some(&none)), "--");
         assert_eq!(margin(None), "--");
+        assert!(is_robust(Some(&robust)) && passed(Some(&robust)));
+        assert!(!is_robust(Some(&edge)) && passed(Some(&edge)));
+        assert!(!is_robust(Some(&failed)) && !passed(Some(&failed)));
+        assert!(!is_robust(None) && !passed(None));
+    }
+
+    #[test]
+    fn the_paired_sentence_counts_and_tests_the_configs_one_hand_passes() {
+        let mut outcomes = vec![(true, true); 17];
+        outcomes.extend([(true, false), (true, false)]);
+        assert_eq!(
+            paired_sentence("Physics passes", &outcomes),
+            "Physics passes: contact IK 19, baseline 17 of 19; only contact IK 2, only the baseline 0 (exact McNemar p = 0.50: below 0.05 the difference is unlikely to be chance)."
+        );
     }
 }

@@ -489,7 +489,8 @@ fn augment_runs_end_to_end_reruns_identically_and_shards_agree() {
 }
 
 /// A paired table (`both`, `only_contact_ik`, `only_baseline`, `neither`) covers the `ran`
-/// samples once each, and its margins are each hand's count.
+/// samples once each, its margins are each hand's count, and its McNemar p-value is the
+/// exact test of its two discordant counts.
 fn check_paired(p: &serde_json::Value, ran: u64, contact_ik: u64, baseline: u64) {
     let n = |k: &str| p[k].as_u64().unwrap();
     assert_eq!(
@@ -499,6 +500,9 @@ fn check_paired(p: &serde_json::Value, ran: u64, contact_ik: u64, baseline: u64)
     );
     assert_eq!(n("both") + n("only_contact_ik"), contact_ik, "{p}");
     assert_eq!(n("both") + n("only_baseline"), baseline, "{p}");
+    let expected =
+        dexwarp::math::sign_test::mcnemar_exact_p(n("only_contact_ik"), n("only_baseline"));
+    assert_eq!(p["mcnemar_p"].as_f64(), Some(expected), "{p}");
 }
 
 /// `--compare-baseline`: every sample that ran also runs with the baseline hand, its files
@@ -558,6 +562,7 @@ fn compare_baseline_pairs_both_hands_sample_by_sample() {
     assert!(
         said.contains("2 run now")
             && said.contains("paired: both")
+            && said.contains("(McNemar p ")
             && said.contains("lost in the grasp: contact IK")
             && said.contains("object off its plan as the carry starts"),
         "{said}"

@@ -114,14 +114,15 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
     if let Some(b) = &s.baseline {
         let p = &b.paired;
         eprintln!(
-            "baseline hand: {} kept of {} ran (yield {:.1} %); paired: both {}, only contact IK {}, only baseline {}, neither {}",
+            "baseline hand: {} kept of {} ran (yield {:.1} %); paired: both {}, only contact IK {}, only baseline {}, neither {} (McNemar p {})",
             b.passed,
             b.ran,
             b.yield_ * 100.0,
             p.both,
             p.only_contact_ik,
             p.only_baseline,
-            p.neither
+            p.neither,
+            p.p_text()
         );
         let c = &b.failed_by_cause;
         eprintln!(
@@ -140,14 +141,15 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
         }
         if let (Some(r), Some(p)) = (&b.robust, &b.paired_robust) {
             eprintln!(
-                "baseline robust: {} of its {} kept (yield {:.1} %); paired robust: both {}, only contact IK {}, only baseline {}, neither {}",
+                "baseline robust: {} of its {} kept (yield {:.1} %); paired robust: both {}, only contact IK {}, only baseline {}, neither {} (McNemar p {})",
                 r.kept,
                 b.passed,
                 r.yield_ * 100.0,
                 p.both,
                 p.only_contact_ik,
                 p.only_baseline,
-                p.neither
+                p.neither,
+                p.p_text()
             );
         }
     }
