@@ -32,11 +32,12 @@ pub fn mcnemar_exact_p(b: u64, c: u64) -> f64 {
     (2.0 * tail * largest.exp()).min(1.0)
 }
 
-/// A p-value for a table or a terminal: two decimals, four below 0.01, scientific notation
-/// below 0.001 (`0.13`, `0.0020`, `1.3e-8`).
+/// A p-value for a table or a terminal: two significant digits (two decimals from 0.1 up),
+/// scientific notation below 0.001 (`0.13`, `0.013`, `0.0020`, `1.3e-8`).
 pub fn format_p(p: f64) -> String {
     match p {
-        p if p >= 0.01 => format!("{p:.2}"),
+        p if p >= 0.1 => format!("{p:.2}"),
+        p if p >= 0.01 => format!("{p:.3}"),
         p if p >= 0.001 => format!("{p:.4}"),
         p => format!("{p:.1e}"),
     }
@@ -85,6 +86,7 @@ mod tests {
     fn p_values_print_with_their_magnitude() {
         assert_eq!(format_p(1.0), "1.00");
         assert_eq!(format_p(0.13380050659179688), "0.13");
+        assert_eq!(format_p(0.012939453125), "0.013");
         assert_eq!(format_p(0.001878225477412343), "0.0019");
         assert_eq!(format_p(1.3087586125948292e-08), "1.3e-8");
         assert_eq!(format_p(0.0), "0.0e0");
