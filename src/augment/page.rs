@@ -146,7 +146,7 @@ const MCNEMAR: &str = "exact two-sided McNemar test of the samples only one hand
 fn baseline_section(b: &BaselineStats) -> String {
     let p = &b.paired;
     let mut h = format!(
-        "<h2>Contact IK against the SE(3) baseline</h2>\n<p class=\"note\">every sample that ran, run again with the rigidly transferred hand on the same object trajectory and judged by the same rule</p>\n<table><tr><th>baseline: ran</th><th>kept</th><th>failed</th><th>yield</th><th>both kept</th><th>only contact IK</th><th>only baseline</th><th>neither</th><th title=\"{MCNEMAR}\">McNemar p</th></tr>\n<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
+        "<h2>Contact IK against the SE(3) baseline</h2>\n<p class=\"note\">every sample that ran, run again with the rigidly transferred hand on the same object trajectory and judged by the same rule; McNemar p: below 0.05 the two yields differ by more than the draw of samples explains</p>\n<table><tr><th>baseline: ran</th><th>kept</th><th>failed</th><th>yield</th><th>both kept</th><th>only contact IK</th><th>only baseline</th><th>neither</th><th title=\"{MCNEMAR}\">McNemar p</th></tr>\n<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
         b.ran,
         b.passed,
         b.failed,
