@@ -7,9 +7,9 @@
 //! a split at least as uneven: `min(1, 2 · P(X ≤ min(b, c)))`. Exact, not the χ²
 //! approximation, because the discordant counts of an augment run are often a handful.
 //!
-//! The binomial terms are summed in log space: `2^-n` underflows past `n = 1074`, and the
-//! largest term of the lower tail is its last (`min(b, c) ≤ n/2`), so the sum is taken
-//! relative to it.
+//! The binomial terms are summed relative to the largest, the lower tail's last
+//! (`min(b, c) ≤ n/2`), whose logarithm is carried: `2^-n` alone underflows past
+//! `n = 1074`.
 
 /// Exact two-sided McNemar p-value for `b` samples only the first method passes and `c`
 /// only the second does; 1 when there are none.
@@ -19,23 +19,24 @@ pub fn mcnemar_exact_p(b: u64, c: u64) -> f64 {
     if n == 0 || 2 * k == n {
         return 1.0;
     }
-    // ln C(n, i) − n ln 2 for i = 0..=k.
-    let mut log_terms = Vec::with_capacity(k as usize + 1);
+    // `log_term` = ln C(n, i) − n ln 2; `tail` = Σ_{j ≤ i} C(n, j) / C(n, i), rescaled at
+    // each step to the newest (largest) term.
     let mut log_term = -(n as f64) * std::f64::consts::LN_2;
-    log_terms.push(log_term);
+    let mut tail = 1.0;
     for i in 0..k {
-        log_term += ((n - i) as f64).ln() - ((i + 1) as f64).ln();
-        log_terms.push(log_term);
+        let step = ((n - i) as f64).ln() - ((i + 1) as f64).ln();
+        log_term += step;
+        tail = tail * (-step).exp() + 1.0;
     }
-    let largest = log_term;
-    let tail: f64 = log_terms.iter().map(|l| (l - largest).exp()).sum();
-    (2.0 * tail * largest.exp()).min(1.0)
+    (2.0 * tail * log_term.exp()).min(1.0)
 }
 
 /// A p-value for a table or a terminal: two significant digits (two decimals from 0.1 up),
-/// scientific notation below 0.001 (`0.13`, `0.013`, `0.0020`, `1.3e-8`).
+/// scientific notation below 0.001 (`0.13`, `0.013`, `0.0020`, `1.3e-8`), `< 1e-300` for
+/// a p-value past the range of f64.
 pub fn format_p(p: f64) -> String {
     match p {
+        0.0 => "< 1e-300".into(),
         p if p >= 0.1 => format!("{p:.2}"),
         p if p >= 0.01 => format!("{p:.3}"),
         p if p >= 0.001 => format!("{p:.4}"),
@@ -89,7 +90,7 @@ mod tests {
         assert_eq!(format_p(0.012939453125), "0.013");
         assert_eq!(format_p(0.001878225477412343), "0.0019");
         assert_eq!(format_p(1.3087586125948292e-08), "1.3e-8");
-        assert_eq!(format_p(0.0), "0.0e0");
+        assert_eq!(format_p(0.0), "< 1e-300");
     }
 
     /// `2^-2000` is below the smallest f64: the p-value rounds to 0, never to NaN.
