@@ -253,11 +253,12 @@ fn yield_to_barriers(
         range.clone(),
         clearance,
     );
-    let held = hand.clone();
-    let frames = smooth::release_held(hand, per_frame, objects, range.clone(), &share, ease);
     let on_object = |h: &HandPath, t: usize| (objects[t].inverse() * h.wrists[t]).translation;
+    let held: Vec<_> = range.clone().map(|t| on_object(hand, t)).collect();
+    let frames = smooth::release_held(hand, per_frame, objects, range.clone(), &share, ease);
     let max_move_mm = range
-        .map(|t| (on_object(hand, t).vector - on_object(&held, t).vector).norm() * 1e3)
+        .zip(&held)
+        .map(|(t, h)| (on_object(hand, t).vector - h.vector).norm() * 1e3)
         .fold(0.0, f64::max);
     HeldYield {
         frames,
@@ -296,9 +297,14 @@ fn release_shares(
     let mut q = vec![0.0; held.dof];
     range
         .map(|t| {
-            let own = distance(&per_frame.wrists[t], per_frame.q(t));
-            let goal = clearance.min(own) - 1e-4;
-            if distance(&held.wrists[t], held.q(t)) >= goal {
+            // The goal is at most the clearance: a held hand that keeps it needs no
+            // per-frame query.
+            let at_held = distance(&held.wrists[t], held.q(t));
+            if at_held >= clearance - 1e-4 {
+                return 0.0;
+            }
+            let goal = clearance.min(distance(&per_frame.wrists[t], per_frame.q(t))) - 1e-4;
+            if at_held >= goal {
                 return 0.0;
             }
             let (mut lo, mut hi) = (0.0, 1.0);

@@ -444,11 +444,7 @@ fn passed(r: Option<&Report>) -> bool {
 
 /// Physics passed and the margin holds under every condition.
 fn is_robust(r: Option<&Report>) -> bool {
-    r.and_then(|r| r.physics.as_ref())
-        .and_then(|p| p.margin())
-        .and_then(|m| m.get("robust"))
-        .and_then(|v| v.as_bool())
-        == Some(true)
+    r.and_then(|r| r.physics.as_ref()).and_then(|p| p.robust()) == Some(true)
 }
 
 /// The object's position error at the first contact frame (`physics.onset`) [mm], for a
@@ -462,9 +458,10 @@ fn onset(r: Option<&Report>) -> String {
 /// The weakest condition a pass holds under (`μ 0.75 at 1.5x`, `robust` when it holds under
 /// all of them), for a table cell; `--` without a pass or a margin.
 fn margin(r: Option<&Report>) -> String {
-    let m = r.and_then(|r| r.physics.as_ref()).and_then(|p| p.margin());
-    let robust = m.and_then(|m| m.get("robust")).and_then(|v| v.as_bool());
-    let weakest = m
+    let physics = r.and_then(|r| r.physics.as_ref());
+    let robust = physics.and_then(|p| p.robust());
+    let weakest = physics
+        .and_then(|p| p.margin())
         .and_then(|m| m.get("weakest"))
         .and_then(|w| Some((w.get(0)?.as_f64()?, w.get(1)?.as_f64()?)));
     match (weakest, robust) {
@@ -579,9 +576,7 @@ pub fn objectives_table(rep: &Reproduction) -> Table {
                 let pen = r
                     .and_then(|r| r.constraints.hand_object_penetration_mm.as_ref())
                     .map(|p| p.warped);
-                if r.and_then(|r| r.physics.as_ref())
-                    .is_some_and(|p| p.verdict == "pass")
-                {
+                if passed(r) {
                     passes[2 * k + j] += 1;
                 }
                 row.push(format!(
