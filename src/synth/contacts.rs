@@ -42,6 +42,8 @@ pub struct ContactParams {
     /// Magnitude `A` of the shared, slowly drifting offset of a frame's object points [mm].
     /// Default 0.
     pub offset_mm: f64,
+    /// What carries the shared offset. Default: the correspondences.
+    pub tracking_error: TrackingError,
     /// Seed of the noise.
     pub seed: u64,
 }
@@ -53,9 +55,20 @@ impl Default for ContactParams {
             spacing_mm: 6.0,
             noise_mm: 0.0,
             offset_mm: 0.0,
+            tracking_error: TrackingError::Correspondences,
             seed: 1,
         }
     }
+}
+
+/// What carries a synthesized recording's shared tracking offset (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TrackingError {
+    /// The correspondences' object points; the recorded hand is the grasp that holds.
+    #[default]
+    Correspondences,
+    /// The recorded hand's pose in the object's frame; the correspondences are on the grasp.
+    Hand,
 }
 
 /// Surface points of every link's collision shapes (link frame), without the points buried
@@ -176,12 +189,28 @@ impl Noise {
         self.axis * ((sign + 0.5 * wave) * self.offset_m)
     }
 
-    /// Adds the shared offset of frame `i` and per-point noise to every object point.
-    pub fn perturb(&mut self, contacts: &mut [Contact], i: usize, fps: f64) {
-        let shared = self.shared(i, fps);
+    /// Adds the shared offset of frame `i` (when the correspondences carry it) and per-point
+    /// noise to every object point.
+    pub fn perturb(&mut self, contacts: &mut [Contact], i: usize, fps: f64, on: TrackingError) {
+        let shared = match on {
+            TrackingError::Correspondences => self.shared(i, fps),
+            TrackingError::Hand => Vector3::zeros(),
+        };
         for c in contacts {
             c.object_point += shared + self.offset();
         }
+    }
+
+    /// Moves the recorded wrist of frame `i` by the shared offset's opposite, in the frame of
+    /// `object` (when the hand carries it; see the module docs).
+    pub fn displace_wrist(
+        &self,
+        object: &Isometry3<f64>,
+        wrist: &mut Isometry3<f64>,
+        i: usize,
+        fps: f64,
+    ) {
+        wrist.translation.vector -= object.rotation * self.shared(i, fps);
     }
 }
 

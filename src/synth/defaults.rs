@@ -233,6 +233,9 @@ pub struct SynthRequest {
     pub seed: Option<u64>,
     /// Correspondence noise σ per axis [mm] (default 0).
     pub noise_mm: Option<f64>,
+    /// What carries the shared tracking offset (`--tracking-error`; default: the
+    /// correspondences).
+    pub tracking_error: Option<super::contacts::TrackingError>,
     /// Fingertip links (`--tips`); by default our hands use their named templates and any
     /// other hand its leaf links ([`super::generic`]).
     pub tips: Option<Vec<String>>,
@@ -287,6 +290,9 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
     }
     if let Some(n) = req.noise_mm {
         spec.contacts.noise_mm = n;
+    }
+    if let Some(on) = req.tracking_error {
+        spec.contacts.tracking_error = on;
     }
     spec.tips = req.tips.clone();
     spec.wrist_link = wrist_link;

@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
-use super::contacts::{self, ContactParams, Noise};
+use super::contacts::{self, ContactParams, Noise, TrackingError};
 use super::grasp::{self, Grasp, GraspParams, GraspTemplate, HandFamily};
 use super::motion::{self, Motion, MotionParams, min_jerk};
 use super::objects::ObjectKind;
@@ -653,8 +653,9 @@ impl HoldTest {
 }
 
 /// The deepest hand-object penetration of the frames outside the in-contact segment
-/// `[c0, c1]` (which share the grasp's relative pose) [m], and `c0`, `c1`. Fails at the
-/// first frame over [`SynthSpec::max_penetration_mm`].
+/// `[c0, c1]` (which share the grasp's relative pose, unless the hand carries the tracking
+/// error: then of every frame) [m], and `c0`, `c1`. Fails at the first frame over
+/// [`SynthSpec::max_penetration_mm`].
 fn check_penetration(
     spec: &SynthSpec,
     robot: &Robot,
@@ -667,8 +668,11 @@ fn check_penetration(
     let mut worst: f64 = 0.0;
     let c0 = spec.timing.idle + spec.timing.reach + spec.timing.close;
     let c1 = c0 + spec.timing.contact_frames() - 1;
+    // A hand that carries the tracking error moves on the object from frame to frame.
+    let hand_moves =
+        spec.contacts.tracking_error == TrackingError::Hand && spec.contacts.offset_mm > 0.0;
     for (i, f) in demo.frames.iter().enumerate() {
-        if i > c0 && i <= c1 {
+        if i > c0 && i <= c1 && !hand_moves {
             continue;
         }
         robot.forward_kinematics(&f.wrist, &f.joints, poses);
@@ -773,7 +777,7 @@ fn build_frames(
     let mut frame_index = t.idle + t.reach + t.close;
     let mut contact_frame = |object: Isometry3<f64>| {
         let mut c = base_contacts.to_vec();
-        noise.perturb(&mut c, frame_index, fps);
+        noise.perturb(&mut c, frame_index, fps, spec.contacts.tracking_error);
         frame_index += 1;
         (object, object * g.wrist_in_object, c)
     };
@@ -794,6 +798,11 @@ fn build_frames(
     }
     for (wrist, q) in post_contact_hand(spec, template, g, &approach, &end, clearance) {
         push(end, wrist, q, Vec::new());
+    }
+    if spec.contacts.tracking_error == TrackingError::Hand {
+        for (i, f) in frames.iter_mut().enumerate() {
+            noise.displace_wrist(&f.object, &mut f.wrist, i, fps);
+        }
     }
     frames
 }
@@ -1028,6 +1037,66 @@ mod tests {
 
     fn wrist_in_object(f: &Frame) -> Vector3<f64> {
         (f.object.inverse() * f.wrist).translation.vector
+    }
+
+    /// The shared tracking offset on the hand instead of the correspondences: the same data
+    /// between hand and correspondences at every in-contact frame, with the correspondences
+    /// on the grasp and the recorded wrist moved by the offset at every frame.
+    #[test]
+    fn the_tracking_error_moves_to_the_hand_with_the_same_data_between_them() {
+        let (mut spec, g, _) = frames_of(ObjectKind::Mug, Motion::Pass);
+        spec.contacts.noise_mm = 1.0;
+        spec.contacts.offset_mm = 8.0;
+        spec.contacts.seed = 5;
+        let template = templates::template(HandFamily::Human, ObjectKind::Mug).unwrap();
+        let start = Isometry3::translation(0.0, 0.0, 1.0);
+        let base: Vec<Contact> = [[0.03, 0.0, 0.02], [0.035, 0.01, -0.01]]
+            .iter()
+            .map(|p| Contact {
+                link: "index_distal".into(),
+                hand_point: Point3::origin(),
+                object_point: Point3::from(Vector3::from(*p)),
+            })
+            .collect();
+        let build = |on: TrackingError| {
+            let mut spec = spec.clone();
+            spec.contacts.tracking_error = on;
+            build_frames(&spec, &start, &g, &template, &base, &mut |_, _| 1.0)
+        };
+        let on_points = build(TrackingError::Correspondences);
+        let on_hand = build(TrackingError::Hand);
+        let noise = Noise::new(5, 1e-3, 8e-3, Vector3::from(template.slide));
+        let t = spec.timing;
+        let c0 = t.idle + t.reach + t.close;
+        let mut largest: f64 = 0.0;
+        for (i, (a, b)) in on_points.iter().zip(&on_hand).enumerate() {
+            assert_eq!((a.object, &a.joints), (b.object, &b.joints));
+            let shared = noise.shared(i, spec.fps);
+            largest = largest.max(shared.norm());
+            // The hand carries the offset at every frame, approach and retreat too.
+            let moved = wrist_in_object(a) - wrist_in_object(b);
+            assert!(
+                (moved - shared).norm() < 1e-12,
+                "frame {i}: {moved:?} vs {shared:?}"
+            );
+            if (c0..c0 + t.contact_frames()).contains(&i) {
+                assert_eq!(a.contacts.len(), base.len());
+                for ((ca, cb), c) in a.contacts.iter().zip(&b.contacts).zip(&base) {
+                    // Hand and correspondences stand as they do with the offset on the points.
+                    let gap_a = ca.object_point.coords - wrist_in_object(a);
+                    let gap_b = cb.object_point.coords - wrist_in_object(b);
+                    assert!((gap_a - gap_b).norm() < 1e-12, "frame {i}");
+                    // On the grasp but for the per-point noise (1 mm σ per axis).
+                    assert!(
+                        (cb.object_point - c.object_point).norm() < 6e-3,
+                        "frame {i}"
+                    );
+                }
+            } else {
+                assert!(a.contacts.is_empty() && b.contacts.is_empty());
+            }
+        }
+        assert!(largest > 4e-3, "the offset is {largest} m at most");
     }
 
     #[test]

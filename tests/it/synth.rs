@@ -226,6 +226,7 @@ fn synthesis_is_deterministic_through_the_cli_entry() {
         mesh: None,
         seed: Some(3),
         noise_mm: Some(1.5),
+        tracking_error: None,
         tips: None,
         wrist_link: None,
     };
@@ -242,6 +243,46 @@ fn synthesis_is_deterministic_through_the_cli_entry() {
     load_demo(&dir.path().join("a/box.demo.json"));
 }
 
+/// `synth --tracking-error hand` on the mug: the same grasp and D_C as the committed
+/// demonstration (the offset sits between the same two, on the other side), its
+/// correspondences on the grasp, and the recorded hand sliding on the mug by the offset's
+/// drift where the committed one holds still; its own replay passes.
+#[test]
+fn the_tracking_error_can_sit_on_the_recorded_hand() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut req = request(
+        "mug",
+        root().join("robots/human_hand.urdf").to_str().unwrap(),
+        "pass",
+        &dir.path().join("mug.demo.json"),
+    );
+    req.tracking_error = Some(dexwarp::synth::contacts::TrackingError::Hand);
+    let syn = defaults::run(&req, &Limits::default()).unwrap();
+    let (committed, _) = load_demo(&root().join("scenes/demos/mug.demo.json"));
+    let (written, _) = load_demo(&dir.path().join("mug.demo.json"));
+    assert_eq!(committed.frames.len(), written.frames.len());
+    for (a, b) in committed.frames.iter().zip(&written.frames) {
+        assert_eq!(a.joints, b.joints);
+    }
+    let d_c = dexwarp::metrics::d_c_mm(&dexwarp::metrics::contact_distance_per_frame_mm(
+        &Robot::from_urdf_file(&written.robot, &Limits::default()).unwrap(),
+        &committed,
+    ));
+    assert!(
+        (syn.stats.d_c_mm - d_c).abs() < 0.1,
+        "D_C {} against the committed {d_c}",
+        syn.stats.d_c_mm
+    );
+    let slide = |d: &Demo| dexwarp::metrics::grasp_slide_mm(d).unwrap();
+    assert!(slide(&committed) < 0.01, "{}", slide(&committed));
+    assert!(slide(&written) > 4.0, "{}", slide(&written));
+    assert!(
+        syn.stats.choice.replay.is_none(),
+        "{:?}",
+        syn.stats.choice.replay
+    );
+}
+
 fn request(object: &str, robot: &str, motion: &str, out: &Path) -> SynthRequest {
     SynthRequest {
         object: object.into(),
@@ -251,6 +292,7 @@ fn request(object: &str, robot: &str, motion: &str, out: &Path) -> SynthRequest 
         mesh: None,
         seed: None,
         noise_mm: None,
+        tracking_error: None,
         tips: None,
         wrist_link: None,
     }

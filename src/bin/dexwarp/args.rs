@@ -147,6 +147,23 @@ impl From<PhysicsHandArg> for dexwarp::physics::HandModel {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum TrackingErrorArg {
+    /// The correspondences (the default of the built-in demonstrations).
+    Correspondences,
+    /// The recorded hand's pose on the object.
+    Hand,
+}
+
+impl From<TrackingErrorArg> for dexwarp::synth::contacts::TrackingError {
+    fn from(t: TrackingErrorArg) -> Self {
+        match t {
+            TrackingErrorArg::Correspondences => Self::Correspondences,
+            TrackingErrorArg::Hand => Self::Hand,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum HandArg {
     /// Per-frame contact IK on the correspondences (the method).
     Contact,

@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use dexwarp::Limits;
 
-use crate::args::non_negative;
+use crate::args::{TrackingErrorArg, non_negative};
 
 /// Make a demonstration: the object resting on a support, the hand reaching and grasping
 /// it (contact IK), a scripted motion, release and retreat, with geometric correspondences.
@@ -38,6 +38,11 @@ pub struct SynthArgs {
     /// Correspondence noise, standard deviation per axis [mm].
     #[arg(long, value_name = "MM", value_parser = non_negative, allow_negative_numbers = true)]
     noise_mm: Option<f64>,
+    /// What carries the recording's shared tracking offset: the correspondences (the
+    /// recorded hand is the grasp that holds) or the recorded hand (the correspondences
+    /// are on that grasp, as after cleaning).
+    #[arg(long, value_enum, value_name = "WHAT")]
+    tracking_error: Option<TrackingErrorArg>,
     /// Fingertip links, comma-separated (default: our hands' templates, else the leaf links).
     #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
     tips: Option<Vec<String>>,
@@ -56,6 +61,7 @@ pub fn run(args: SynthArgs, limits: Limits) -> Result<()> {
         mesh,
         seed,
         noise_mm,
+        tracking_error,
         tips,
         wrist_link,
     } = args;
@@ -68,6 +74,7 @@ pub fn run(args: SynthArgs, limits: Limits) -> Result<()> {
             mesh,
             seed,
             noise_mm,
+            tracking_error: tracking_error.map(Into::into),
             tips,
             wrist_link,
         },
