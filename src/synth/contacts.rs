@@ -202,7 +202,7 @@ impl Noise {
     }
 
     /// Moves the recorded wrist of frame `i` by the shared offset's opposite, in the frame of
-    /// `object` (when the hand carries it; see the module docs).
+    /// `object`: the hand carries the offset instead of the correspondences (module docs).
     pub fn displace_wrist(
         &self,
         object: &Isometry3<f64>,

@@ -10,7 +10,9 @@
 //! 2. **in-contact**: the grasp is held ([`Timing::hold`]), the object follows the scripted
 //!    motion ([`super::motion`], [`Timing::motion`]) and is held again on its new support;
 //!    the hand is rigidly attached to the object. Correspondences of every frame are
-//!    extracted geometrically at the grasp ([`super::contacts`]), with seeded noise;
+//!    extracted geometrically at the grasp ([`super::contacts`]), with seeded noise (with
+//!    [`TrackingError::Hand`] the recorded hand carries the noise's shared offset instead,
+//!    at every frame of all three segments, and moves on the object by it);
 //! 3. **post-contact**: release (fingers open, the hand backs off 1 cm along the approach;
 //!    with [`GraspTemplate::level_release`] the fingers open first, the hand backs off level
 //!    and slides out 8 cm level, stepping around the object where it is near, before it
