@@ -250,14 +250,7 @@ fn synthesis_is_deterministic_through_the_cli_entry() {
 #[test]
 fn the_tracking_error_can_sit_on_the_recorded_hand() {
     let dir = tempfile::tempdir().unwrap();
-    let mut req = request(
-        "mug",
-        root().join("robots/human_hand.urdf").to_str().unwrap(),
-        "pass",
-        &dir.path().join("mug.demo.json"),
-    );
-    req.tracking_error = Some(dexwarp::synth::contacts::TrackingError::Hand);
-    let syn = defaults::run(&req, &Limits::default()).unwrap();
+    let syn = synth_with_error_on_hand("mug", "pass", dir.path());
     let (committed, _) = load_demo(&root().join("scenes/demos/mug.demo.json"));
     let (written, _) = load_demo(&dir.path().join("mug.demo.json"));
     assert_eq!(committed.frames.len(), written.frames.len());
@@ -290,19 +283,29 @@ fn the_tracking_error_can_sit_on_the_recorded_hand() {
 #[test]
 fn the_tracking_error_on_the_hand_is_not_refused_as_a_bad_approach() {
     let dir = tempfile::tempdir().unwrap();
-    let mut req = request(
-        "teapot",
-        root().join("robots/human_hand.urdf").to_str().unwrap(),
-        "pour",
-        &dir.path().join("teapot.demo.json"),
-    );
-    req.tracking_error = Some(dexwarp::synth::contacts::TrackingError::Hand);
-    let syn = defaults::run(&req, &Limits::default()).unwrap();
+    let syn = synth_with_error_on_hand("teapot", "pour", dir.path());
     // Deeper than the limit, by at most the offset's length (A = 5.3 mm times at most 2.5).
     let depth = syn.stats.max_penetration_mm;
     assert!(depth > 2.0 && depth < 2.0 + 2.5 * 5.3, "{depth} mm");
     let why = syn.stats.choice.replay.as_deref().unwrap_or("passes");
     assert!(why.contains("slipped"), "{why}");
+}
+
+/// The human hand's base demonstration of `object` with the tracking error on the recorded
+/// hand, written to `dir/<object>.demo.json`.
+fn synth_with_error_on_hand(
+    object: &str,
+    motion: &str,
+    dir: &Path,
+) -> dexwarp::synth::demo::Synthesis {
+    let mut req = request(
+        object,
+        root().join("robots/human_hand.urdf").to_str().unwrap(),
+        motion,
+        &dir.join(format!("{object}.demo.json")),
+    );
+    req.tracking_error = Some(dexwarp::synth::contacts::TrackingError::Hand);
+    defaults::run(&req, &Limits::default()).unwrap()
 }
 
 fn request(object: &str, robot: &str, motion: &str, out: &Path) -> SynthRequest {
