@@ -420,7 +420,7 @@ fn baseline_hand(r: &Row) -> (&str, Option<bool>) {
 
 impl Paired {
     /// The pairing of `(contact IK's outcome, the baseline's)` over some samples.
-    fn of(outcomes: impl IntoIterator<Item = (bool, bool)>) -> Paired {
+    pub fn of(outcomes: impl IntoIterator<Item = (bool, bool)>) -> Paired {
         let mut p = Paired {
             both: 0,
             only_contact_ik: 0,

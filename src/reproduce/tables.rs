@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 
 use super::{ROBUSTNESS_CONFIG, Reproduction, RunRecord, THRESHOLDS_MM};
 use crate::Result;
-use crate::math::sign_test::{format_p, mcnemar_exact_p};
+use crate::augment::stats::Paired;
 use crate::model::json::write_atomic;
 use crate::model::report::Report;
 
@@ -426,13 +426,15 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
 /// `Physics passes: contact IK 19, baseline 17 of 19; only contact IK 2, only the baseline
 /// 0 (exact McNemar p = 0.50: ...).` for `(contact IK, baseline)` outcomes per config.
 fn paired_sentence(what: &str, outcomes: &[(bool, bool)]) -> String {
-    let count = |f: fn(&(bool, bool)) -> bool| outcomes.iter().filter(|o| f(o)).count() as u64;
-    let (ik, base) = (count(|o| o.0), count(|o| o.1));
-    let (only_ik, only_base) = (count(|o| o.0 && !o.1), count(|o| !o.0 && o.1));
+    let p = Paired::of(outcomes.iter().copied());
     format!(
-        "{what}: contact IK {ik}, baseline {base} of {}; only contact IK {only_ik}, only the baseline {only_base} (exact McNemar p = {}: below 0.05 the difference is unlikely to be chance).",
+        "{what}: contact IK {}, baseline {} of {}; only contact IK {}, only the baseline {} (exact McNemar p = {}: below 0.05 the difference is unlikely to be chance).",
+        p.both + p.only_contact_ik,
+        p.both + p.only_baseline,
         outcomes.len(),
-        format_p(mcnemar_exact_p(only_ik, only_base))
+        p.only_contact_ik,
+        p.only_baseline,
+        p.p_text()
     )
 }
 

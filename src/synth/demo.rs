@@ -675,29 +675,33 @@ fn check_penetration(
     // A hand that carries the tracking error moves on the object from frame to frame.
     let hand_moves =
         spec.contacts.tracking_error == TrackingError::Hand && spec.contacts.offset_mm > 0.0;
-    let error = Noise::new(
-        spec.contacts.seed,
-        0.0,
-        spec.contacts.offset_mm * 1e-3,
-        Vector3::z(),
-    );
+    // Its length at each frame (the direction does not change it).
+    let error = hand_moves.then(|| {
+        Noise::new(
+            spec.contacts.seed,
+            0.0,
+            spec.contacts.offset_mm * 1e-3,
+            Vector3::z(),
+        )
+    });
     for (i, f) in demo.frames.iter().enumerate() {
         if i > c0 && i <= c1 && !hand_moves {
             continue;
         }
         robot.forward_kinematics(&f.wrist, &f.joints, poses);
         let p = penetration(robot, poses, geo, &f.object);
-        let allowed_mm = if hand_moves {
-            error.shared(i, spec.fps).norm() * 1e3
-        } else {
-            0.0
-        };
+        let allowed_mm = error
+            .as_ref()
+            .map_or(0.0, |e| e.shared(i, spec.fps).norm() * 1e3);
         if p.depth_m * 1e3 > spec.max_penetration_mm + allowed_mm {
             let link = p.link.map_or("?", |l| robot.link(l).name.as_str());
-            let of_error = if hand_moves {
-                format!(", {allowed_mm:.1} mm more for the tracking error the hand carries there")
-            } else {
-                String::new()
+            let of_error = match error {
+                Some(_) => {
+                    format!(
+                        ", {allowed_mm:.1} mm more for the tracking error the hand carries there"
+                    )
+                }
+                None => String::new(),
             };
             return Err(fail(
                 "(grasp)",
