@@ -68,8 +68,29 @@ pub struct Params {
     /// pass (see the module docs) [m]; 0 turns the link pass off. Default 0.002.
     pub link_clearance_m: f64,
     /// Frames over which a link-pass push fades into its neighbours, and over which the ball
-    /// pass phases in from the contact segment. Default 15 (0.5 s at 30 fps).
+    /// pass phases in from the contact segment. Default 15 ([`BLEND_S`] at 30 fps; set it for
+    /// a demonstration's rate with [`Params::at_fps`]).
     pub blend_frames: usize,
+}
+
+/// How long a push fades into its neighbours and the ball pass phases in [s].
+pub const BLEND_S: f64 = 0.5;
+
+impl Params {
+    /// These parameters with [`Params::blend_frames`] set to [`BLEND_S`] at `fps` frames per
+    /// second (rounded; 15 at 30 fps, 5 at 10, 60 at 120), so the hand moves off a barrier
+    /// over the same time whatever the recording's rate.
+    pub fn at_fps(self, fps: f64) -> Params {
+        let frames = (BLEND_S * fps).round();
+        Params {
+            blend_frames: if frames.is_finite() && frames > 0.0 {
+                frames as usize
+            } else {
+                0
+            },
+            ..self
+        }
+    }
 }
 
 impl Default for Params {
@@ -726,5 +747,51 @@ mod tests {
         let (out, stats) = run(hand.clone(), &plan, &one_finger(), barriers, &params);
         assert_eq!(out, hand);
         assert_eq!(stats.frames_moved, 0);
+    }
+
+    /// The ball pass phases in over the same time at any frame rate: a wrist resting inside
+    /// a box's inflated hull after a 0.5 s contact segment is pushed out in full, and a frame
+    /// `s` seconds after the segment gets `s / 0.5 s` of that push, to within a frame's share
+    /// of the blend, at 10, 30 and 120 fps. Counted in frames (15 at every rate) the share
+    /// 0.3 s after the segment would be 0.19 at 10 fps, not 0.5.
+    #[test]
+    fn the_ball_pass_phases_in_over_the_same_seconds_at_any_frame_rate() {
+        let center = Vector3::new(0.0, 0.0, -0.04);
+        for fps in [10.0, 30.0, 120.0] {
+            let params = Params::default().at_fps(fps);
+            let end = (0.5 * fps).round() as usize;
+            let n = end + 1 + (1.5 * fps).round() as usize;
+            let segment = ContactSegment {
+                start: 0,
+                end,
+                gap_frames: 0,
+            };
+            let positions = vec![Vector3::zeros(); n];
+            let plan = WarpPlan::identity(&positions, segment);
+            let robot = one_finger();
+            let mut hand = HandPath::with_capacity(n, robot.dof());
+            for _ in 0..n {
+                hand.push(Isometry3::identity(), &vec![0.0; robot.dof()]);
+            }
+            let hull = [
+                Barrier::from_points("box", &box_points(center, 0.05), params.radius_m).unwrap(),
+            ];
+            let (out, stats) = run(hand, &plan, &robot, hulls(&hull), &params);
+            assert!(stats.narrow_gap.is_none(), "{stats:?}");
+            let full = out.wrists[n - 1].translation.z;
+            assert!(full > 0.02, "{fps} fps: pushed {full} m");
+            let frame_share = 1.0 / (params.blend_frames as f64 + 1.0);
+            for t in end + 1..n {
+                let time = (t - end) as f64 / fps;
+                let share = out.wrists[t].translation.z / full;
+                let expected = (time / BLEND_S).min(1.0);
+                assert!(
+                    (share - expected).abs() <= frame_share + 1e-9,
+                    "{fps} fps, {time:.3} s after the segment: share {share:.3}, {expected:.3} asked"
+                );
+            }
+        }
+        assert_eq!(Params::default().at_fps(30.0), Params::default());
+        assert_eq!(Params::default().at_fps(10.0).blend_frames, 5);
     }
 }

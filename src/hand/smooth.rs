@@ -8,6 +8,10 @@
 //!   `h = rotation_half_window` ([`crate::math::rotation::windowed_average`]);
 //! - joints (1-DoF each): centered moving mean of the angles, `h = joint_half_window`.
 //!
+//! The windows are times ([`SAVGOL_HALF_WINDOW_S`], [`AVERAGE_HALF_WINDOW_S`]) counted in frames
+//! at the demonstration's rate by [`Params::at_fps`], so the same motion is smoothed alike at
+//! 10, 30 or 120 fps.
+//!
 //! Frames outside the range are untouched. Continuity at the boundaries: each filter runs
 //! over the range extended by up to its half window of the untouched neighbours on each
 //! side, and only the range is written back. So the first and last frames of the segment
@@ -29,7 +33,18 @@ use super::HandPath;
 use crate::math::rotation::{RotationError, windowed_average, windowed_mean};
 use crate::math::savgol::{SavgolError, savgol_filter3};
 
-/// Parameters of the smoothing.
+/// Half window of the wrist translation's Savitzky-Golay filter [s]: 4 frames at 30 fps.
+pub const SAVGOL_HALF_WINDOW_S: f64 = 4.0 / 30.0;
+/// Polynomial order of the wrist translation's Savitzky-Golay filter, where its window
+/// allows it (a window of `2h + 1` samples fits at most order `2h`).
+pub const SAVGOL_POLYORDER: usize = 3;
+/// Half window of the wrist-rotation average and of the joint-angle mean [s]: 2 frames at
+/// 30 fps.
+pub const AVERAGE_HALF_WINDOW_S: f64 = 2.0 / 30.0;
+
+/// Parameters of the smoothing, in frames. The filters are defined in seconds (the
+/// constants above) and [`Params::at_fps`] turns them into frames at a demonstration's rate,
+/// so a recording at 10 or 120 fps is smoothed over the same time as one at 30 fps.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Params {
@@ -43,11 +58,36 @@ pub struct Params {
     pub joint_half_window: usize,
 }
 
+impl Params {
+    /// The smoothing of a demonstration recorded at `fps` frames per second: each half
+    /// window is its length in seconds times `fps`, rounded (the Savitzky-Golay half window at
+    /// least 1, its order lowered to what the window fits; at 10 fps a 3-sample window of
+    /// order 2 leaves the translation as it is). 30 fps gives [`Params::default`].
+    pub fn at_fps(fps: f64) -> Params {
+        let frames = |s: f64| {
+            let n = (s * fps).round();
+            if n.is_finite() && n > 0.0 {
+                n as usize
+            } else {
+                0
+            }
+        };
+        let h = frames(SAVGOL_HALF_WINDOW_S).max(1);
+        Params {
+            savgol_window: 2 * h + 1,
+            savgol_polyorder: SAVGOL_POLYORDER.min(2 * h),
+            rotation_half_window: frames(AVERAGE_HALF_WINDOW_S),
+            joint_half_window: frames(AVERAGE_HALF_WINDOW_S),
+        }
+    }
+}
+
 impl Default for Params {
+    /// The smoothing at 30 fps.
     fn default() -> Self {
         Params {
             savgol_window: 9,
-            savgol_polyorder: 3,
+            savgol_polyorder: SAVGOL_POLYORDER,
             rotation_half_window: 2,
             joint_half_window: 2,
         }
@@ -321,4 +361,53 @@ pub fn ease_ends(
         }
     }
     changed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn windows_are_the_same_time_at_every_frame_rate() {
+        assert_eq!(Params::at_fps(30.0), Params::default());
+        let at = |fps: f64| {
+            let p = Params::at_fps(fps);
+            (
+                p.savgol_window,
+                p.savgol_polyorder,
+                p.rotation_half_window,
+                p.joint_half_window,
+            )
+        };
+        assert_eq!(at(10.0), (3, 2, 1, 1));
+        assert_eq!(at(60.0), (17, 3, 4, 4));
+        assert_eq!(at(120.0), (33, 3, 8, 8));
+        // Below 7.5 fps the averages are off and the translation window stays at 3.
+        assert_eq!(at(5.0), (3, 2, 0, 0));
+    }
+
+    /// At 10 fps the translation's 3-sample window of order 2 fits every sample exactly:
+    /// a wrist path that jitters is left as it is (the averages still act).
+    #[test]
+    fn at_ten_fps_the_translation_filter_keeps_the_samples() {
+        let n = 30;
+        let mut hand = HandPath::with_capacity(n, 1);
+        for i in 0..n {
+            let x = i as f64 * 0.01 + if i % 2 == 0 { 1e-3 } else { -1e-3 };
+            hand.push(Isometry3::translation(x, 0.0, 0.0), &[0.1 * (i % 3) as f64]);
+        }
+        let (out, stats) = run(&hand, 5..=24, &Params::at_fps(10.0)).unwrap();
+        for t in 0..n {
+            let d = (out.wrists[t].translation.vector - hand.wrists[t].translation.vector).norm();
+            assert!(d < 1e-12, "frame {t} moved {d}");
+        }
+        assert!(
+            stats.max_joint > 0.01,
+            "the joint mean left the joints: {stats:?}"
+        );
+        // At 30 fps the 9-sample window smooths the same jitter away.
+        let (out, _) = run(&hand, 5..=24, &Params::default()).unwrap();
+        let d = (out.wrists[15].translation.vector - hand.wrists[15].translation.vector).norm();
+        assert!(d > 5e-4, "moved {d}");
+    }
 }

@@ -191,7 +191,7 @@ pub fn warp(inputs: &Inputs, options: &Options) -> Result<WarpRun> {
     } = inputs;
     let mut timing = BTreeMap::new();
     let input = ObjectPath::from_poses(demo.frames.iter().map(|f| &f.object));
-    let params = StageParams::resolve(config, options)?;
+    let params = StageParams::resolve(config, demo.fps, options)?;
     let plan = stages::plan(inputs, options, &params, &input)?;
     let radius = mesh.bounding_radius();
     let barrier_shapes = barriers::shapes(config, scene, &options.limits)?;

@@ -9,7 +9,7 @@ use serde_json::Value;
 
 use super::{HandMethod, Options};
 use crate::hand::ik::{self, Solver};
-use crate::hand::pushout;
+use crate::hand::{pushout, smooth};
 use crate::model::{Objective, WarmStart, WarpConfig};
 use crate::physics::{self, HandModel};
 use crate::warp::ObjectParams;
@@ -104,17 +104,21 @@ pub struct StageParams {
     /// Contact IK, but for the penetration tolerance, which a config may leave to the
     /// demonstration (see [`StageParams::ik`]).
     pub ik: ik::Params,
-    /// The hand's push-out outside the contact segment.
+    /// The hand's push-out outside the contact segment (its blend at the demonstration's
+    /// rate).
     pub hand_pushout: pushout::Params,
+    /// Smoothing inside the contact segment (contact IK), at the demonstration's rate.
+    pub smooth: smooth::Params,
     /// The physics replay; `None` skips it.
     pub physics: Option<physics::Params>,
 }
 
 impl StageParams {
-    /// The parameters `config` asks for with `options` on top. Fails, naming the config and
-    /// the field, when its `params.physics` block names no physics parameter or has a value
-    /// of the wrong type.
-    pub fn resolve(config: &WarpConfig, options: &Options) -> Result<StageParams> {
+    /// The parameters `config` asks for with `options` on top, for a demonstration recorded
+    /// at `fps` (the windows the hand stages give in seconds, in its frames). Fails, naming
+    /// the config and the field, when its `params.physics` block names no physics parameter
+    /// or has a value of the wrong type.
+    pub fn resolve(config: &WarpConfig, fps: f64, options: &Options) -> Result<StageParams> {
         let p = &config.params;
         let ik = ik::Params {
             solver: options.solver,
@@ -132,7 +136,8 @@ impl StageParams {
             step_m: p.pushout_step_m,
             link_clearance_m: p.hand_clearance_m,
             ..pushout::Params::default()
-        };
+        }
+        .at_fps(fps);
         let physics = match &options.physics {
             Some(o) => Some(o.apply(physics_params(config)?)),
             None => None,
@@ -141,6 +146,7 @@ impl StageParams {
             object: ObjectParams::from_config(p),
             ik,
             hand_pushout,
+            smooth: smooth::Params::at_fps(fps),
             physics,
         })
     }

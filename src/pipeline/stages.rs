@@ -127,6 +127,7 @@ pub(super) fn provenance(inputs: &Inputs, options: &Options, params: &StageParam
             "physics": options.physics.is_some(),
         }),
     );
+    provenance.parameters("hand_pushout", &params.hand_pushout);
     provenance.parameters("limits", &options.limits);
     if let Some(p) = &params.physics {
         provenance.parameters("physics", p);
@@ -153,6 +154,7 @@ pub(super) fn contact_ik(
         ..
     } = inputs;
     let object_sdf = crate::geometry::object_sdf(mesh);
+    let smoothing = &params.smooth;
     let params = params.ik(config, || {
         crate::model::config::auto_penetration_tolerance_mm(
             object_sdf.as_deref().map_or(0.0, |sdf| {
@@ -162,7 +164,7 @@ pub(super) fn contact_ik(
     });
     let tolerance_mm = params.penetration_tolerance_mm;
     provenance.parameters("ik", &params);
-    provenance.parameters("smooth", &smooth::Params::default());
+    provenance.parameters("smooth", smoothing);
     let (raw, stats) = ik::run(
         robot,
         demo,
@@ -178,7 +180,7 @@ pub(super) fn contact_ik(
     let clock = Instant::now();
     let range = object.plan.segment.start..=object.plan.t_end_new();
     let ease = ((EASE_S * demo.fps).round() as usize).max(1);
-    let (mut hand, _) = smooth::run(&raw, range.clone(), &smooth::Params::default())
+    let (mut hand, _) = smooth::run(&raw, range.clone(), smoothing)
         .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
     let mut held_yield = None;
     if config.params.grasp == GraspMode::Held {
