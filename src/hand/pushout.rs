@@ -81,13 +81,8 @@ impl Params {
     /// second (rounded; 15 at 30 fps, 5 at 10, 60 at 120), so the hand moves off a barrier
     /// over the same time whatever the recording's rate.
     pub fn at_fps(self, fps: f64) -> Params {
-        let frames = (BLEND_S * fps).round();
         Params {
-            blend_frames: if frames.is_finite() && frames > 0.0 {
-                frames as usize
-            } else {
-                0
-            },
+            blend_frames: crate::math::frames_in(BLEND_S, fps),
             ..self
         }
     }

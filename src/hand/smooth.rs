@@ -30,6 +30,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::HandPath;
+use crate::math::frames_in;
 use crate::math::rotation::{RotationError, windowed_average, windowed_mean};
 use crate::math::savgol::{SavgolError, savgol_filter3};
 
@@ -64,20 +65,12 @@ impl Params {
     /// least 1, its order lowered to what the window fits; at 10 fps a 3-sample window of
     /// order 2 leaves the translation as it is). 30 fps gives [`Params::default`].
     pub fn at_fps(fps: f64) -> Params {
-        let frames = |s: f64| {
-            let n = (s * fps).round();
-            if n.is_finite() && n > 0.0 {
-                n as usize
-            } else {
-                0
-            }
-        };
-        let h = frames(SAVGOL_HALF_WINDOW_S).max(1);
+        let h = frames_in(SAVGOL_HALF_WINDOW_S, fps).max(1);
         Params {
             savgol_window: 2 * h + 1,
             savgol_polyorder: SAVGOL_POLYORDER.min(2 * h),
-            rotation_half_window: frames(AVERAGE_HALF_WINDOW_S),
-            joint_half_window: frames(AVERAGE_HALF_WINDOW_S),
+            rotation_half_window: frames_in(AVERAGE_HALF_WINDOW_S, fps),
+            joint_half_window: frames_in(AVERAGE_HALF_WINDOW_S, fps),
         }
     }
 }

@@ -179,7 +179,7 @@ pub(super) fn contact_ik(
     // Stage 5: smoothing inside the contact segment.
     let clock = Instant::now();
     let range = object.plan.segment.start..=object.plan.t_end_new();
-    let ease = ((EASE_S * demo.fps).round() as usize).max(1);
+    let ease = crate::math::frames_in(EASE_S, demo.fps).max(1);
     let (mut hand, _) = smooth::run(&raw, range.clone(), smoothing)
         .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
     let mut held_yield = None;
