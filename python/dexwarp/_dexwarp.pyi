@@ -184,7 +184,7 @@ def warp(
     """Warps demo with config (``dexwarp warp``), GIL released.
 
     hand: "contact" | "baseline"; solver: "lm" | "adam"; objective: "non_penetrating" |
-    "paper"; warm_start: "follow_object" | "previous"; physics=False skips the replay."""
+    "paper"; warm_start: "follow_object" | "previous" | "rigid"; physics=False skips the replay."""
 
 def validate(
     demo: Demo, *, scene: Optional[_Path] = None, barriers: Optional[Sequence[str]] = None

@@ -147,8 +147,8 @@ impl WarpResult {
 /// config's own `demo` is not read. Keywords as the command line's flags: threshold_mm
 /// overrides the config's IK threshold; hand "contact" or "baseline"; solver "lm" or
 /// "adam"; physics=False skips the replay (the report's physics is None); objective
-/// "non_penetrating" or "paper", penetration_weight and warm_start ("follow_object" or
-/// "previous") override the config.
+/// "non_penetrating" or "paper", penetration_weight and warm_start ("follow_object",
+/// "previous" or "rigid") override the config.
 #[pyfunction]
 #[pyo3(signature = (
     demo, config, *, threshold_mm=None, hand="contact", solver="lm", physics=true,

@@ -79,7 +79,10 @@ pub struct WarpParams {
     /// paper's literal reading). With `previous` the hand lags a moving object by up to the
     /// threshold and the object runs into the fingers: on the 14 built-in configs the physics
     /// pass count was 1 (10 mm) and 3 (3.5 mm) with `previous`, 6 and 4 with `follow_object`
-    /// (measured on one revision, before the teapot grasp was fixed).
+    /// (measured on one revision, before the teapot grasp was fixed). `rigid` starts every
+    /// frame from the rigid transfer of the recorded hand, so the grasp stays nearer the
+    /// recording's (docs/RESULTS.md "At 10 fps": fewer frames meet the threshold, and the
+    /// teapot at 10 fps keeps its grasp as at 30 fps).
     pub warm_start: WarmStart,
     /// Timewarp rule: `chord` (default: constant speed per segment, resting frames keep time),
     /// `paper` (chord length without a floor, as the paper's reference code; the built-in

@@ -86,6 +86,11 @@ pub enum WarmStart {
     /// The previous frame's solution carried along by the object's motion between the two
     /// frames, `W ← O(t)·O(t−1)⁻¹·W` (beyond the paper: fewer iterations, less lag).
     FollowObject,
+    /// The rigid transfer of the recorded hand at that frame (the baseline's pose): every
+    /// frame starts from the recording's grasp and stops at the first pose that meets the
+    /// stop rule, so the solutions stay as near the recorded grasp as the threshold allows
+    /// instead of wandering from frame to frame with the correspondences.
+    Rigid,
 }
 
 /// How the recovered hand holds the object over the contact segment (stage 5).

@@ -72,6 +72,7 @@ fn identity_warp_recovers_the_original_hand() {
     let warp = g.identity_warp();
     let cases = [
         (WarmStart::FollowObject, 3.5, 1e-6),
+        (WarmStart::Rigid, 3.5, 1e-6),
         (WarmStart::Previous, 0.05, 1e-3),
     ];
     for (warm_start, threshold_mm, wrist_tol_m) in cases {
@@ -101,6 +102,37 @@ fn identity_warp_recovers_the_original_hand() {
             (stats.d_c_mm - dc).abs() < 1e-6,
             "stats D_C {} vs {dc}",
             stats.d_c_mm
+        );
+    }
+}
+
+/// With the rigid warm start every frame starts from the rigid transfer at that frame, so a
+/// frame's solution owes nothing to the frames before it: moving the warm start of the
+/// segment's first half 5 cm away changes none of the second half's solutions, where
+/// warm-starting from the previous frame carries the change along.
+#[test]
+fn with_the_rigid_warm_start_a_frame_owes_nothing_to_the_frames_before_it() {
+    let g = small();
+    let warp = waypoint_warp(&g);
+    let init = baseline::run(&g.demo, &warp).expect("baseline");
+    let (c0, t_end) = (warp.plan.segment.start, warp.plan.t_end_new());
+    let half = (c0 + t_end) / 2;
+    let mut moved = init.clone();
+    for w in &mut moved.wrists[c0..half] {
+        w.translation.vector += Vector3::new(0.05, 0.0, 0.0);
+    }
+    for (warm_start, independent) in [(WarmStart::Rigid, true), (WarmStart::FollowObject, false)] {
+        let params = Params {
+            warm_start,
+            ..lm(3.5)
+        };
+        let (a, _) = ik::run(&g.robot, &g.demo, &warp, &init, &[], None, &params);
+        let (b, _) = ik::run(&g.robot, &g.demo, &warp, &moved, &[], None, &params);
+        let same = (half..=t_end).all(|t| a.wrists[t] == b.wrists[t] && a.q(t) == b.q(t));
+        assert_eq!(same, independent, "{warm_start:?}");
+        assert!(
+            (c0..half).any(|t| a.wrists[t] != b.wrists[t]),
+            "{warm_start:?}: the moved frames' solutions did not change"
         );
     }
 }

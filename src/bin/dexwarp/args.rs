@@ -194,6 +194,8 @@ pub enum WarmStartArg {
     Previous,
     /// The previous frame's solution carried along by the object's motion.
     FollowObject,
+    /// The rigid transfer of the recorded hand at that frame.
+    Rigid,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -218,6 +220,7 @@ impl From<WarmStartArg> for WarmStart {
         match w {
             WarmStartArg::Previous => WarmStart::Previous,
             WarmStartArg::FollowObject => WarmStart::FollowObject,
+            WarmStartArg::Rigid => WarmStart::Rigid,
         }
     }
 }

@@ -164,7 +164,10 @@ pub fn run(
         let s = warp.source_frame(t);
         let contacts = &resolved[s - c0];
         let object_pose = path.pose(t);
-        if t > c0 && (contacts.is_empty() || params.warm_start == WarmStart::FollowObject) {
+        if params.warm_start == WarmStart::Rigid {
+            wrist = init.wrists[t];
+            q.copy_from_slice(init.q(t));
+        } else if t > c0 && (contacts.is_empty() || params.warm_start == WarmStart::FollowObject) {
             wrist = object_pose * prev_object.inverse() * wrist;
         }
         let target_m = match &recording_m {
