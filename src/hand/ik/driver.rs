@@ -1,6 +1,6 @@
 //! Stage 4 over a whole trajectory: [`run`] solves every output frame of the contact
-//! segment in order, warm-starting each from the previous one, and sums the frames up in
-//! [`Stats`].
+//! segment in order, warm-starting each from the previous one (or, with the rigid warm
+//! start, from `init` at that frame), and sums the frames up in [`Stats`].
 
 use std::time::Instant;
 
@@ -97,7 +97,8 @@ pub struct Stats {
 /// For every output frame `t` in `[c0, t'_end]`: the correspondences of
 /// `t* = warp.retime.timewarp.source_frame(t)`, the object pose of the warped object at
 /// `t`, and the warm start of [`Params::warm_start`] from the previous frame's solution (the
-/// first frame starts from `init`, e.g. the baseline hand). A frame whose `t*` has no
+/// first frame starts from `init`, e.g. the baseline hand; with the rigid warm start every
+/// frame starts from `init` at that frame). A frame whose `t*` has no
 /// correspondences (a gap inside the segment) has nothing to fit: its hand is the previous
 /// solution carried along by the object's motion. Frames outside the contact segment are
 /// copied from `init` (the rigid shift of stage 1). `demo` must be in robot joint order
