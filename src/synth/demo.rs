@@ -695,13 +695,10 @@ fn check_penetration(
             .map_or(0.0, |e| e.shared(i, spec.fps).norm() * 1e3);
         if p.depth_m * 1e3 > spec.max_penetration_mm + allowed_mm {
             let link = p.link.map_or("?", |l| robot.link(l).name.as_str());
-            let of_error = match error {
-                Some(_) => {
-                    format!(
-                        ", {allowed_mm:.1} mm more for the tracking error the hand carries there"
-                    )
-                }
-                None => String::new(),
+            let of_error = if error.is_some() {
+                format!(", {allowed_mm:.1} mm more for the tracking error the hand carries there")
+            } else {
+                String::new()
             };
             return Err(fail(
                 "(grasp)",
