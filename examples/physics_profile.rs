@@ -21,7 +21,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         configs.sort();
     }
     let limits = Limits::default();
-    let params = physics::Params::default();
+    let params = physics::Params {
+        ensemble: physics::EnsembleParams::single(),
+        ..physics::Params::default()
+    };
     println!(
         "| config | frames | steps | skipped | hand contact | idle | hand manifolds / step | hand points / step | other manifolds / step | decomposition s | replay s | penetration s | stability s | total s | hand contact s | idle s | other s | verdict |"
     );

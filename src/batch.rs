@@ -185,6 +185,8 @@ pub struct BatchOptions {
     pub shard: Option<Shard>,
     /// Re-run items that already have a report.
     pub force: bool,
+    /// The ensemble verdict's members and seed, over each config's own.
+    pub physics: crate::pipeline::PhysicsOptions,
     pub limits: Limits,
     /// Show a progress bar (only when stderr is a terminal).
     pub progress: bool,
@@ -304,6 +306,7 @@ fn run_item(item: &Item, out: &Path, options: &BatchOptions) -> Outcome {
                 .demo(item.demo.clone())
                 .threshold_mm(item.threshold_mm)
                 .solver(item.solver)
+                .physics(Some(options.physics.clone()))
                 .limits(options.limits),
         )?;
         crate::output::write_run(&dir, &run)?;

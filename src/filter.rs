@@ -39,6 +39,14 @@ pub struct Criteria {
     pub max_release_turn_deg: Option<f64>,
     /// Reject items whose push-out hit the narrow-gap failure. Default true.
     pub reject_narrow_gap: bool,
+    /// Keep on the ensemble's pass fraction reaching this instead of on the verdict (which
+    /// is the pass fraction reaching the run's own keep threshold). Items judged by a single
+    /// replay have no pass fraction and are dropped, saying so.
+    pub min_pass_fraction: Option<f64>,
+    /// Drop items whose ensemble cannot tell the side of the threshold in use: its 95 %
+    /// interval contains it (`min_pass_fraction`, else the run's keep threshold). Default
+    /// false.
+    pub exclude_uncertain: bool,
 }
 
 impl Default for Criteria {
@@ -53,6 +61,8 @@ impl Default for Criteria {
             max_onset_mm: None,
             max_release_turn_deg: None,
             reject_narrow_gap: true,
+            min_pass_fraction: None,
+            exclude_uncertain: false,
         }
     }
 }
@@ -66,6 +76,8 @@ pub struct Row {
     pub demo: String,
     pub d_c_mm: Option<f64>,
     pub verdict: String,
+    /// The ensemble's pass fraction (empty for a single replay).
+    pub pass_fraction: Option<f64>,
     /// Every reason the item was dropped, separated by `; ` (empty when kept).
     pub reasons: String,
 }
@@ -165,6 +177,64 @@ fn physics_figures(report: &Report, c: &Criteria, reasons: &mut Vec<String>) {
     }
 }
 
+/// The physics part of [`judge`]: the verdict (or the pass fraction against
+/// [`Criteria::min_pass_fraction`]), robustness and certainty.
+fn physics_reasons(
+    physics: Option<&crate::model::report::PhysicsSummary>,
+    c: &Criteria,
+    row: &mut Row,
+    reasons: &mut Vec<String>,
+) {
+    const NO_ENSEMBLE: &str =
+        "no ensemble in the report (a single replay); write it with --ensemble K > 1";
+    let Some(p) = physics else {
+        if c.require_physics_pass || c.require_robust {
+            reasons.push("no physics verdict in the report".into());
+        }
+        return;
+    };
+    row.verdict = p.verdict.clone();
+    row.pass_fraction = p.pass_fraction();
+    match (c.min_pass_fraction, p.pass_fraction()) {
+        (Some(min), Some(f)) => {
+            if f + 1e-12 < min {
+                reasons.push(format!(
+                    "physics: pass fraction {f:.2} ({} of {} ensemble replays) < {min}",
+                    p.ensemble()
+                        .and_then(|e| e.get("passed")?.as_u64())
+                        .unwrap_or(0),
+                    p.ensemble_members().1
+                ));
+                reasons.extend(p.reasons.iter().map(|r| format!("physics: {r}")));
+            }
+        }
+        (Some(_), None) => reasons.push(NO_ENSEMBLE.into()),
+        (None, _) => {
+            if c.require_physics_pass && p.verdict != "pass" {
+                if p.reasons.is_empty() {
+                    reasons.push(format!("physics verdict {}", p.verdict));
+                }
+                reasons.extend(p.reasons.iter().map(|r| format!("physics: {r}")));
+            }
+        }
+    }
+    if c.require_robust && p.verdict == "pass" {
+        reasons.extend(p.not_robust_because());
+    }
+    if c.exclude_uncertain {
+        let threshold = c
+            .min_pass_fraction
+            .or_else(|| p.ensemble().and_then(|e| e.get("keep_threshold")?.as_f64()));
+        match (p.pass_interval(), threshold) {
+            (Some([lo, hi]), Some(t)) if lo < t && t < hi => reasons.push(format!(
+                "uncertain: the pass fraction's 95 % interval {lo:.2}-{hi:.2} contains {t}"
+            )),
+            (Some(_), _) => {}
+            (None, _) => reasons.push(NO_ENSEMBLE.into()),
+        }
+    }
+}
+
 fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
     let mut row = Row {
         name: String::new(),
@@ -172,6 +242,7 @@ fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
         demo: String::new(),
         d_c_mm: None,
         verdict: String::new(),
+        pass_fraction: None,
         reasons: String::new(),
     };
     let report: Report = match std::fs::read(path)
@@ -197,24 +268,7 @@ fn judge(path: &Path, c: &Criteria) -> (Row, bool) {
         reasons.push(format!("failed: {e}"));
     } else {
         row.d_c_mm = Some(report.metrics.d_c_mm.warped);
-        match &report.physics {
-            Some(p) => {
-                row.verdict = p.verdict.clone();
-                if c.require_physics_pass && p.verdict != "pass" {
-                    if p.reasons.is_empty() {
-                        reasons.push(format!("physics verdict {}", p.verdict));
-                    }
-                    reasons.extend(p.reasons.iter().map(|r| format!("physics: {r}")));
-                }
-                if c.require_robust && p.verdict == "pass" {
-                    reasons.extend(p.not_robust_because());
-                }
-            }
-            None if c.require_physics_pass || c.require_robust => {
-                reasons.push("no physics verdict in the report".into());
-            }
-            None => {}
-        }
+        physics_reasons(report.physics.as_ref(), c, &mut row, &mut reasons);
         let m = &report.metrics;
         if let Some(max) = c.max_dc_mm
             && m.d_c_mm.warped > max

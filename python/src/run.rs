@@ -148,11 +148,12 @@ impl WarpResult {
 /// overrides the config's IK threshold; hand "contact" or "baseline"; solver "lm" or
 /// "adam"; physics=False skips the replay (the report's physics is None); objective
 /// "non_penetrating" or "paper", penetration_weight and warm_start ("follow_object",
-/// "previous" or "rigid") override the config.
+/// "previous" or "rigid") override the config; ensemble (K replays, 1 for a single one) and
+/// ensemble_seed set the ensemble verdict.
 #[pyfunction]
 #[pyo3(signature = (
     demo, config, *, threshold_mm=None, hand="contact", solver="lm", physics=true,
-    objective=None, penetration_weight=None, warm_start=None
+    objective=None, penetration_weight=None, warm_start=None, ensemble=None, ensemble_seed=None
 ))]
 pub fn warp(
     py: Python<'_>,
@@ -165,6 +166,8 @@ pub fn warp(
     objective: Option<&str>,
     penetration_weight: Option<f64>,
     warm_start: Option<&str>,
+    ensemble: Option<usize>,
+    ensemble_seed: Option<u64>,
 ) -> PyResult<WarpResult> {
     let threshold_mm = threshold_mm
         .map(|t| positive_mm("threshold_mm", t))
@@ -187,7 +190,11 @@ pub fn warp(
         .objective(objective.map(|o| choice("objective", o)).transpose()?)
         .penetration_weight(penetration_weight)
         .warm_start(warm_start.map(|w| choice("warm_start", w)).transpose()?)
-        .physics(physics.then(PhysicsOptions::default))
+        .physics(physics.then(|| PhysicsOptions {
+            ensemble,
+            ensemble_seed,
+            ..PhysicsOptions::default()
+        }))
         .limits(Limits::default());
     let (config, demo) = (config.inner.clone(), demo.inner.clone());
     let (run, inputs) = py
@@ -233,7 +240,7 @@ pub fn validate<'py>(
 /// (`stats["baseline"]`: its yield and the paired counts); `margin` also measures the
 /// robustness margin of every sample that passes physics (`stats["robust"]`).
 #[pyfunction]
-#[pyo3(signature = (demo, variations, *, count, out, seed=0, jobs=0, shard=None, force=false, compare_baseline=false, margin=false))]
+#[pyo3(signature = (demo, variations, *, count, out, seed=0, jobs=0, shard=None, force=false, compare_baseline=false, margin=false, ensemble=None, ensemble_seed=None))]
 pub fn augment<'py>(
     py: Python<'py>,
     demo: PathBuf,
@@ -246,6 +253,8 @@ pub fn augment<'py>(
     force: bool,
     compare_baseline: bool,
     margin: bool,
+    ensemble: Option<usize>,
+    ensemble_seed: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let shard = shard
         .map(|s| {
@@ -264,6 +273,11 @@ pub fn augment<'py>(
         force,
         compare_baseline,
         margin,
+        physics: PhysicsOptions {
+            ensemble,
+            ensemble_seed,
+            ..PhysicsOptions::default()
+        },
         limits: Limits::default(),
         progress: false,
     };

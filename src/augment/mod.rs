@@ -22,17 +22,9 @@ pub mod stats;
 pub use run::{Augment, AugmentOptions, merge, run};
 pub use spec::Spec;
 
-/// SplitMix64's finalizer: a bijection of `u64` that mixes every bit.
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
 /// The RNG seed of variation `index` of a run seeded with `seed`.
 pub fn variation_seed(seed: u64, index: u64) -> u64 {
-    splitmix64(splitmix64(seed) ^ splitmix64(index.wrapping_add(1)))
+    crate::math::stream_seed(seed, index)
 }
 
 /// The folder name of variation `index`: six digits, more when needed.

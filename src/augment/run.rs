@@ -66,6 +66,8 @@ pub struct AugmentOptions {
     /// Also replay the robustness margin of every sample that passes physics, with each
     /// hand run (`physics.margin` in its report, `robust` in the rows and stats).
     pub margin: bool,
+    /// The ensemble verdict's members and seed (`margin` and `hand` here are ignored).
+    pub physics: PhysicsOptions,
     pub limits: Limits,
     pub progress: bool,
 }
@@ -292,6 +294,13 @@ fn fill(row: &mut Row, report: &Report, spec: &Spec, dir: &Path, stretched: &[Ra
         row.onset_error_mm = onset_error_mm(report);
         row.release_turn_by_hand_deg = release_turn_by_hand_deg(report);
         row.robust = robust(report);
+        if let Some(p) = report.physics.as_ref().filter(|p| p.ensemble().is_some()) {
+            let (k, n) = p.ensemble_members();
+            row.pass_fraction = p.pass_fraction();
+            row.ensemble_members = Some(k);
+            row.ensemble_replayed = Some(n);
+            row.uncertain = p.uncertain();
+        }
     }
 }
 
@@ -329,6 +338,10 @@ fn fill_baseline(
         row.baseline_onset_error_mm = onset_error_mm(report);
         row.baseline_release_turn_by_hand_deg = release_turn_by_hand_deg(report);
         row.baseline_robust = robust(report);
+        if let Some(p) = &report.physics {
+            row.baseline_pass_fraction = p.pass_fraction();
+            row.baseline_uncertain = p.uncertain();
+        }
     }
 }
 
@@ -380,8 +393,12 @@ fn run_sample(
             if o.compare_baseline && baseline.is_none() {
                 continue;
             }
-            let lacks_margin =
-                |r: &Report| o.margin && r.physics.as_ref().is_some_and(|p| p.margin().is_none());
+            // A sample finished with another ensemble runs again too.
+            let lacks_margin = |r: &Report| {
+                r.physics.as_ref().is_some_and(|p| {
+                    (o.margin && p.margin().is_none()) || !same_ensemble(p, &o.physics)
+                })
+            };
             if lacks_margin(&report)
                 || (o.compare_baseline && baseline.as_ref().is_some_and(lacks_margin))
             {
@@ -517,8 +534,18 @@ fn sample_options(o: &AugmentOptions, hand: HandMethod) -> Options {
         .limits(o.limits)
         .physics(Some(PhysicsOptions {
             margin: o.margin,
-            ..PhysicsOptions::default()
+            ..o.physics.clone()
         }))
+}
+
+/// Whether a finished sample's physics was judged by the ensemble `asked` names (members
+/// and seed; what the options leave open is the spec's, which a finished sample shares).
+fn same_ensemble(p: &crate::model::report::PhysicsSummary, asked: &PhysicsOptions) -> bool {
+    let (k, _) = p.ensemble_members();
+    asked.ensemble.is_none_or(|want| want == k)
+        && asked
+            .ensemble_seed
+            .is_none_or(|seed| k == 1 || p.ensemble_seed() == Some(seed))
 }
 
 /// A report carrying the error of a hand run (`hand`), also written to `stage/file`.

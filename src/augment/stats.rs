@@ -107,6 +107,21 @@ pub struct Row {
     pub robust: Option<bool>,
     #[serde(default)]
     pub baseline_robust: Option<bool>,
+    /// The ensemble verdict (`physics.ensemble`): the pass fraction over the members
+    /// replayed, K, the members replayed, and whether the 95 % interval contains the keep
+    /// threshold; empty for a single replay.
+    #[serde(default)]
+    pub pass_fraction: Option<f64>,
+    #[serde(default)]
+    pub ensemble_members: Option<usize>,
+    #[serde(default)]
+    pub ensemble_replayed: Option<usize>,
+    #[serde(default)]
+    pub uncertain: Option<bool>,
+    #[serde(default)]
+    pub baseline_pass_fraction: Option<f64>,
+    #[serde(default)]
+    pub baseline_uncertain: Option<bool>,
 }
 
 /// A segment whose duration factor is at least this is *stretched*: its D_C is reported
@@ -120,7 +135,7 @@ pub type Metric = fn(&Row) -> Option<f64>;
 
 /// The stable key of a physics verdict sentence (`physics::verdict` wording).
 pub fn physics_key(sentence: &str) -> String {
-    const KEYS: [(&str, &str); 12] = [
+    const KEYS: [(&str, &str); 13] = [
         ("the simulation diverged", "diverged"),
         ("object dropped", "dropped"),
         ("object slipped", "slipped"),
@@ -133,6 +148,7 @@ pub fn physics_key(sentence: &str) -> String {
         ("object-barrier penetration", "object_barrier_penetration"),
         ("simulation displacement", "unstable"),
         ("released unsupported", "released_unsupported"),
+        ("passes in", "below_keep_threshold"),
     ];
     if let Some((_, k)) = KEYS.iter().find(|(p, _)| sentence.starts_with(p)) {
         return format!("physics:{k}");
@@ -320,6 +336,9 @@ pub struct Stats {
     /// With `--margin`: the kept samples whose margin holds under every condition.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robust: Option<Robust>,
+    /// The ensemble verdicts of the samples that ran (absent for single replays).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ensemble: Option<EnsembleStats>,
     /// With `--compare-baseline`: the SE(3) baseline hand on the same samples.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub baseline: Option<BaselineStats>,
@@ -369,6 +388,48 @@ pub struct BaselineStats {
     pub robust: Option<Robust>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paired_robust: Option<Paired>,
+}
+
+/// The ensemble verdicts of a run's samples (`stats.json` `ensemble`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EnsembleStats {
+    /// Samples with an ensemble verdict.
+    pub samples: u64,
+    /// Their pass fractions.
+    pub pass_fraction: Summary,
+    /// How many have each pass fraction, by the fraction with two decimals (`"0.75"`).
+    pub pass_fraction_counts: BTreeMap<String, u64>,
+    /// Samples whose interval contains the keep threshold, kept and dropped.
+    pub uncertain: u64,
+    pub uncertain_kept: u64,
+    /// Members replayed over all samples, and what K replays of each would have been.
+    pub replayed: u64,
+    pub asked: u64,
+}
+
+impl EnsembleStats {
+    fn of(rows: &[Row]) -> Option<EnsembleStats> {
+        let with: Vec<&Row> = rows.iter().filter(|r| r.pass_fraction.is_some()).collect();
+        if with.is_empty() {
+            return None;
+        }
+        let mut e = EnsembleStats {
+            samples: with.len() as u64,
+            pass_fraction: Summary::of(with.iter().filter_map(|r| r.pass_fraction)),
+            ..EnsembleStats::default()
+        };
+        for r in &with {
+            let f = r.pass_fraction.unwrap_or(0.0);
+            *e.pass_fraction_counts.entry(format!("{f:.2}")).or_default() += 1;
+            if r.uncertain == Some(true) {
+                e.uncertain += 1;
+                e.uncertain_kept += u64::from(r.status == "kept");
+            }
+            e.replayed += r.ensemble_replayed.unwrap_or(0) as u64;
+            e.asked += r.ensemble_members.unwrap_or(0) as u64;
+        }
+        Some(e)
+    }
 }
 
 /// Kept samples whose robustness margin holds under every condition (`--margin`).
@@ -716,6 +777,7 @@ impl Stats {
             _ => None,
         };
         s.robust = Robust::of(rows, contact_hand);
+        s.ensemble = EnsembleStats::of(rows);
         s.baseline = BaselineStats::of(rows);
         s
     }

@@ -238,6 +238,43 @@ impl PhysicsSummary {
         self.measures.get("margin").filter(|m| !m.is_null())
     }
 
+    /// The ensemble verdict (`physics.ensemble`), when the trajectory was replayed by one.
+    pub fn ensemble(&self) -> Option<&serde_json::Value> {
+        self.measures.get("ensemble").filter(|e| !e.is_null())
+    }
+
+    /// The ensemble's pass fraction; `None` for a single replay.
+    pub fn pass_fraction(&self) -> Option<f64> {
+        self.ensemble()?.get("pass_fraction")?.as_f64()
+    }
+
+    /// The ensemble's 95 % interval of the pass fraction; `None` for a single replay.
+    pub fn pass_interval(&self) -> Option<[f64; 2]> {
+        let i = self.ensemble()?.get("interval")?.as_array()?;
+        Some([i.first()?.as_f64()?, i.get(1)?.as_f64()?])
+    }
+
+    /// Whether the ensemble's interval contains its keep threshold; `None` for a single
+    /// replay.
+    pub fn uncertain(&self) -> Option<bool> {
+        self.ensemble()?.get("uncertain")?.as_bool()
+    }
+
+    /// Members asked (K) and replayed; `(1, 1)` for a single replay.
+    pub fn ensemble_members(&self) -> (usize, usize) {
+        let get = |k: &str| {
+            self.ensemble()
+                .and_then(|e| e.get(k)?.as_u64())
+                .map_or(1, |v| v as usize)
+        };
+        (get("members"), get("replayed"))
+    }
+
+    /// The seed of the ensemble's draws; `None` for a single replay.
+    pub fn ensemble_seed(&self) -> Option<u64> {
+        self.ensemble()?.get("seed")?.as_u64()
+    }
+
     /// The object's position error when the contact segment starts (`physics.onset`) [mm]:
     /// how far the approach and the closing moved it; `None` without one.
     pub fn onset_error_mm(&self) -> Option<f64> {

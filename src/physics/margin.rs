@@ -71,6 +71,7 @@ pub fn margin(
 ) -> Result<Margin> {
     let p = Params {
         margin: true,
+        ensemble: super::EnsembleParams::single(),
         ..params.clone()
     };
     let r = validate(robot, demo, scene, barriers, object_mesh, &p, limits)?;
@@ -95,6 +96,7 @@ pub fn given_nominal(
         let p = Params {
             hand_friction: params.hand_friction * sf,
             margin: false,
+            ensemble: super::EnsembleParams::single(),
             ..params.clone()
         };
         let mut d = demo.clone();

@@ -300,6 +300,7 @@
 
 mod actuated;
 mod checks;
+pub mod ensemble;
 pub mod margin;
 pub mod params;
 mod replay;
@@ -315,6 +316,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 pub use crate::geometry::hull::{DecompositionParams, ObjectShape, ShapeMethod, object_shape};
+pub use ensemble::{Decision, Ensemble, EnsembleParams};
 pub use margin::{Margin, margin};
 pub use params::{Actuation, HandModel, Params};
 pub use report::{
@@ -352,6 +354,62 @@ pub fn validate(
     let start = Instant::now();
     params.check()?;
     check_demo(robot, demo)?;
+    let mut report = validate_one(
+        robot,
+        demo,
+        scene,
+        barriers,
+        object_mesh,
+        params,
+        limits,
+        None,
+    )?;
+    if params.ensemble.members > 1 {
+        let clock = Instant::now();
+        let e = run_ensemble(
+            &report,
+            robot,
+            demo,
+            scene,
+            barriers,
+            object_mesh,
+            params,
+            limits,
+        )?;
+        report.reasons = match e.decision {
+            Decision::Keep => Vec::new(),
+            Decision::Drop if e.nominal_reasons.is_empty() => vec![e.drop_sentence()],
+            Decision::Drop => e.nominal_reasons.clone(),
+        };
+        report.ensemble = Some(e);
+        report.timing_s.ensemble = clock.elapsed().as_secs_f64();
+    }
+    report.timing_s.total = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// What a perturbed member of the ensemble replays differently from the nominal replay.
+struct MemberSetup<'a> {
+    /// The object's pose at the start of the replay.
+    object_start: nalgebra::Isometry3<f64>,
+    /// The nominal replay's penetration checks, which measure the trajectory as written.
+    penetration: &'a PenetrationRun,
+}
+
+/// One replay of `demo` and its report (the margin too when asked, for the nominal replay):
+/// [`validate`] without the ensemble. With `member`, the object starts at its pose and the
+/// penetration checks are the nominal's.
+fn validate_one(
+    robot: &Robot,
+    demo: &Demo,
+    scene: &Scene,
+    barriers: &[String],
+    object_mesh: &Mesh,
+    params: &Params,
+    limits: &Limits,
+    member: Option<&MemberSetup<'_>>,
+) -> Result<PhysicsReport> {
+    let start = Instant::now();
 
     // 1. Object shape.
     let (object, cached, sdf) = object_shapes(demo, object_mesh, params)?;
@@ -364,9 +422,23 @@ pub fn validate(
     // depend on the replay: the two run side by side.
     let barrier_names: Vec<String> = solid.iter().map(|(n, _)| n.clone()).collect();
     let support_names: Vec<String> = supports.iter().map(|(n, _)| n.clone()).collect();
+    let object_start = member.map(|m| &m.object_start);
     let (replay, (pen, penetration_s)) = rayon::join(
-        || run_replay(robot, demo, &object, &supports, &solid, params),
         || {
+            run_replay(
+                robot,
+                demo,
+                &object,
+                &supports,
+                &solid,
+                params,
+                object_start,
+            )
+        },
+        || {
+            if let Some(m) = member {
+                return (m.penetration.clone(), 0.0);
+            }
             let t_pen = Instant::now();
             let pen = penetrations(
                 robot,
@@ -394,10 +466,11 @@ pub fn validate(
         penetration: penetration_s,
         stability: checked.stability_s,
         margin: 0.0,
+        ensemble: 0.0,
         total: 0.0,
     };
     let mut report = judge(demo, &object, cached, &trace, pen, checked, timing, params);
-    if params.margin {
+    if params.margin && member.is_none() {
         add_margin(
             &mut report,
             robot,
@@ -411,6 +484,92 @@ pub fn validate(
     }
     report.timing_s.total = start.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// The ensemble of `demo` given its nominal replay's `report` ([`ensemble`]): the perturbed
+/// members replayed a batch at a time (one member a core), in member order, until all are
+/// replayed or the early stop holds.
+fn run_ensemble(
+    nominal: &PhysicsReport,
+    robot: &Robot,
+    demo: &Demo,
+    scene: &Scene,
+    barriers: &[String],
+    object_mesh: &Mesh,
+    params: &Params,
+    limits: &Limits,
+) -> Result<Ensemble> {
+    let ep = &params.ensemble;
+    let penetration = PenetrationRun {
+        penetration: nominal.penetration.clone(),
+        per_ho: nominal.per_frame.hand_object_penetration_mm.clone(),
+        per_hb: nominal.per_frame.hand_barrier_penetration_mm.clone(),
+    };
+    let run_member = |index: usize| -> Result<ensemble::Member> {
+        let draw = ep.draw(&demo.name, index);
+        let mut d = demo.clone();
+        let mut jitter = ensemble::Jitter::new(&draw, ep, demo.fps);
+        for f in &mut d.frames {
+            f.wrist = draw.apply_to_wrist(&f.wrist);
+            jitter.apply(&mut f.wrist, &mut f.joints);
+        }
+        d.object.mass *= draw.mass_scale;
+        let p = Params {
+            hand_friction: params.hand_friction * draw.friction_scale,
+            finger_skin_m: (params.finger_skin_m + draw.skin_offset_mm * 1e-3).max(0.0),
+            margin: false,
+            ensemble: EnsembleParams::single(),
+            ..params.clone()
+        };
+        let setup = MemberSetup {
+            object_start: draw.apply_to_start(&demo.frames[0].object),
+            penetration: &penetration,
+        };
+        let r = validate_one(
+            robot,
+            &d,
+            scene,
+            barriers,
+            object_mesh,
+            &p,
+            limits,
+            Some(&setup),
+        )?;
+        Ok(ensemble::Member {
+            index,
+            draw,
+            passed: r.passed(),
+            reason: r.reasons.first().cloned(),
+        })
+    };
+    let mut members = vec![ensemble::Member {
+        index: 0,
+        draw: ensemble::Draw::default(),
+        passed: nominal.passed(),
+        reason: nominal.reasons.first().cloned(),
+    }];
+    let stop = |members: &[ensemble::Member]| {
+        let passed = members.iter().filter(|m| m.passed).count();
+        members.len() >= ep.members
+            || (ep.early_stop
+                && ensemble::can_stop(passed, members.len(), ep.members, ep.keep_threshold))
+    };
+    let batch = rayon::current_num_threads().max(1);
+    'batches: while !stop(&members) {
+        let next = members.len();
+        let indices: Vec<usize> = (next..(next + batch).min(ep.members)).collect();
+        let done = indices
+            .par_iter()
+            .map(|&i| run_member(i))
+            .collect::<Result<Vec<_>>>()?;
+        for m in done {
+            members.push(m);
+            if stop(&members) {
+                break 'batches;
+            }
+        }
+    }
+    Ok(Ensemble::of(ep, members, nominal.reasons.clone()))
 }
 
 /// The grasp hold test (`dexwarp validate --grasp-only`, and `synth`'s choice of grasp).
@@ -474,7 +633,7 @@ pub fn carry(
         wrist_link: demo.wrist_link.clone(),
         source: demo.source.clone(),
     };
-    let (trace, _) = run_replay(robot, &carried, object, &[], &[], params)?;
+    let (trace, _) = run_replay(robot, &carried, object, &[], &[], params, None)?;
     let (_, _, mut tracking) = checks::tracking_errors(&carried, &trace.object);
     tracking.max_position_error_frame += segment.start;
     tracking.max_rotation_error_frame += segment.start;
@@ -565,7 +724,8 @@ fn scene_items(
 }
 
 /// Builds the world (hand and object at frame 0, the supports and barriers fixed) and
-/// replays the trajectory in it: the trace and the wall time [s].
+/// replays the trajectory in it: the trace and the wall time [s]. The object starts at
+/// `object_start`, by default its pose at frame 0.
 fn run_replay(
     robot: &Robot,
     demo: &Demo,
@@ -573,6 +733,7 @@ fn run_replay(
     supports: &[(String, CollisionShape)],
     solid: &[(String, CollisionShape)],
     params: &Params,
+    object_start: Option<&nalgebra::Isometry3<f64>>,
 ) -> Result<(replay::Trace, f64)> {
     let fixed: Vec<FixedItem<'_>> = supports
         .iter()
@@ -589,13 +750,14 @@ fn run_replay(
     let t_replay = Instant::now();
     let mut link_poses = robot.new_link_poses();
     let f0 = &demo.frames[0];
+    let start = object_start.unwrap_or(&f0.object);
     robot.forward_kinematics(&f0.wrist, &f0.joints, &mut link_poses);
     let mut world = ReplayWorld::with_hand_model(
         robot,
         &link_poses,
         &f0.joints,
         object,
-        &f0.object,
+        start,
         demo.object.mass,
         &fixed,
         params,
@@ -605,7 +767,7 @@ fn run_replay(
     let shortcuts = replay::Shortcuts {
         rest: params.skip_rest,
         rests_at_start: params.skip_rest
-            && checks::nearest_support(object, &f0.object, &named(supports))
+            && checks::nearest_support(object, start, &named(supports))
                 .is_some_and(|(_, gap)| gap <= params.support_gap_m),
         drop: demo
             .contact_segment()
@@ -847,6 +1009,7 @@ fn judge(
             hand: params.hand,
         },
         margin: None,
+        ensemble: None,
         profile: trace.profile,
         timing_s: timing,
         per_frame: PerFrame {
@@ -897,6 +1060,7 @@ fn add_margin(
 }
 
 /// The four penetration figures and the per-frame hand-object and hand-barrier depths [mm].
+#[derive(Clone)]
 struct PenetrationRun {
     penetration: Penetrations,
     per_ho: Vec<f64>,

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::ensemble::EnsembleParams;
 use crate::geometry::hull::DecompositionParams;
 use crate::{Error, Result};
 
@@ -170,6 +171,11 @@ pub struct Params {
     /// the plan by more than [`Params::drop_error_m`]); default `true`. The tracking figures
     /// then cover the replayed frames, and the release is not judged.
     pub stop_after_drop: bool,
+
+    /// The ensemble verdict ([`super::ensemble`]): K replays under seeded perturbations,
+    /// the trajectory kept on their pass fraction; default 8 members. `members: 1` is the
+    /// single nominal replay.
+    pub ensemble: EnsembleParams,
 }
 
 impl Default for Params {
@@ -204,11 +210,20 @@ impl Default for Params {
             margin: false,
             skip_rest: true,
             stop_after_drop: true,
+            ensemble: EnsembleParams::default(),
         }
     }
 }
 
 impl Params {
+    /// The defaults judged by one nominal replay instead of the ensemble.
+    pub fn single_replay() -> Params {
+        Params {
+            ensemble: EnsembleParams::single(),
+            ..Params::default()
+        }
+    }
+
     /// Checks that every value is usable; the error names the field and what is expected.
     pub fn check(&self) -> Result<()> {
         let path = Path::new("physics parameters");
@@ -302,6 +317,7 @@ impl Params {
                 "is 0; expected at least 1",
             ));
         }
+        self.ensemble.check()?;
         let d = &self.decomposition;
         if d.resolution < 4 || d.max_parts == 0 || d.concavity.is_nan() || d.concavity < 0.0 {
             return Err(Error::invalid(

@@ -281,6 +281,9 @@ pub struct Timing {
     /// The margin's extra replays (0 when not asked for).
     #[serde(default)]
     pub margin: f64,
+    /// The ensemble's perturbed members (0 for a single replay).
+    #[serde(default)]
+    pub ensemble: f64,
     pub total: f64,
 }
 
@@ -333,6 +336,10 @@ pub struct PhysicsReport {
     /// ([`super::Params::margin`]).
     #[serde(default)]
     pub margin: Option<super::Margin>,
+    /// The ensemble verdict ([`super::ensemble`]); `None` for a single replay. The other
+    /// fields are its nominal member's; the reasons follow its decision.
+    #[serde(default)]
+    pub ensemble: Option<super::Ensemble>,
     #[serde(skip)]
     pub per_frame: PerFrame,
     /// Where the nominal replay's steps went (the physics module's profile; not in reports).
@@ -369,6 +376,7 @@ impl PhysicsReport {
         put("replay", json(&self.replay));
         put("timing_s", json(&self.timing_s));
         put("margin", json(&self.margin));
+        put("ensemble", json(&self.ensemble));
         put(
             "robust",
             serde_json::json!(self.margin.as_ref().map(|m| m.robust)),

@@ -16,13 +16,17 @@ use crate::warp::ObjectParams;
 use crate::{Error, Limits, Result};
 
 /// The physics replay of a run, on top of the config's `params.physics`: whether the
-/// robustness margin is measured, and the hand model when the caller names one.
+/// robustness margin is measured, the hand model and the ensemble when the caller names them.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PhysicsOptions {
     /// Also replay the margin's conditions when the nominal replay passes.
     pub margin: bool,
     /// The hand model; `None` keeps the config's (kinematic by default).
     pub hand: Option<HandModel>,
+    /// Members of the ensemble verdict, K; `None` keeps the config's (8 by default).
+    pub ensemble: Option<usize>,
+    /// Seed of the ensemble's draws; `None` keeps the config's (0 by default).
+    pub ensemble_seed: Option<u64>,
 }
 
 impl PhysicsOptions {
@@ -31,6 +35,12 @@ impl PhysicsOptions {
         base.margin |= self.margin;
         if let Some(hand) = self.hand {
             base.hand = hand;
+        }
+        if let Some(k) = self.ensemble {
+            base.ensemble.members = k;
+        }
+        if let Some(seed) = self.ensemble_seed {
+            base.ensemble.seed = seed;
         }
         base
     }

@@ -280,13 +280,18 @@ pub fn synthesize(
         let frames = build_frames(spec, &start, g, template, &base_contacts, &mut clearance);
         let mut demo = new_demo(spec, robot, robot_path, mesh_path, frames);
         round_demo(&mut demo);
+        // One nominal replay: the grasp search compares candidates, it does not filter.
+        let hold = crate::physics::Params {
+            ensemble: crate::physics::EnsembleParams::single(),
+            ..spec.hold.clone()
+        };
         let replay = crate::physics::validate(
             robot,
             &demo,
             &scene,
             &[],
             &written_mesh,
-            &spec.hold,
+            &hold,
             &crate::Limits::default(),
         )?;
         Ok(Candidate {

@@ -21,7 +21,7 @@ fn an_unloaded_actuated_hand_follows_its_trajectory() {
     let robot = Robot::from_urdf_file(&demo.robot, &limits).unwrap();
     let params = Params {
         hand: HandModel::Actuated,
-        ..Params::default()
+        ..Params::single_replay()
     };
     // An object far away, in free fall: nothing for the hand to touch.
     let far = object_shape(&box_mesh([0.05; 3]), &params.decomposition)
@@ -97,7 +97,7 @@ fn an_actuated_hand_needs_effort_limits() {
     let robot = Robot::from_urdf_file(&urdf, &limits).unwrap();
     let params = Params {
         hand: HandModel::Actuated,
-        ..Params::default()
+        ..Params::single_replay()
     };
     let obj = object_shape(&box_mesh([0.05; 3]), &params.decomposition)
         .unwrap()

@@ -49,6 +49,7 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         root: root.path().to_path_buf(),
         quick: true,
         jobs: 2,
+        physics: dexwarp::pipeline::PhysicsOptions::default(),
         limits: dexwarp::Limits::default(),
         progress: false,
     })

@@ -141,7 +141,7 @@ fn squeeze_lift_grip(overlap: f64, params: &Params) -> (f64, GripSample) {
 
 #[test]
 fn plates_squeezing_a_cube_lift_it_for_surfaces_within_2mm() {
-    let params = Params::default();
+    let params = Params::single_replay();
     for overlap in [-0.002, -0.001, 0.0, 0.001, 0.002] {
         let err = squeeze_lift(overlap, &params);
         println!(
@@ -162,7 +162,7 @@ fn plates_squeezing_a_cube_lift_it_for_surfaces_within_2mm() {
 fn the_grip_force_splits_into_the_skin_and_the_overlap() {
     // Friction carries the weight: the plates' total normal force N must reach m·g / μ
     // (two faces, each at most μ·N/2), and it grows with the compression skin + overlap.
-    let params = Params::default();
+    let params = Params::single_replay();
     let mu = params.hand_friction.max(params.object_friction);
     let weight = 0.2 * 9.81;
     let mut last = 0.0;
@@ -215,7 +215,7 @@ fn without_finger_skin_plates_at_the_surface_do_not_hold() {
     // Why the softness model exists: rigid plates exactly at the surface grip nothing.
     let params = Params {
         finger_skin_m: 0.0,
-        ..Params::default()
+        ..Params::single_replay()
     };
     let err = squeeze_lift(0.0, &params);
     println!(
@@ -258,7 +258,7 @@ fn lone_cube(z0: f64, params: &Params) -> (ReplayWorld, Robot, Vec<Isometry3<f64
 
 #[test]
 fn a_free_cube_falls_as_half_g_t_squared_until_it_hits_the_table() {
-    let params = Params::default();
+    let params = Params::single_replay();
     let z0 = 1.0;
     let (mut world, _robot, poses) = lone_cube(z0, &params);
     let dt = params.max_dt_s;
@@ -305,7 +305,7 @@ fn a_free_cube_falls_as_half_g_t_squared_until_it_hits_the_table() {
 
 #[test]
 fn a_released_cube_comes_to_rest_on_its_support() {
-    let params = Params::default();
+    let params = Params::single_replay();
     let (mut world, _robot, poses) = lone_cube(0.08, &params);
     for _ in 0..360 {
         world.drive_hand(&poses, &[]);
@@ -515,7 +515,7 @@ fn run(case: &Case) -> PhysicsReport {
         &case.scene,
         &case.barriers,
         &case.mesh,
-        &Params::default(),
+        &Params::single_replay(),
         &Limits::default(),
     )
     .expect("validate");
@@ -570,7 +570,7 @@ fn solver_cut_keeps_the_gripper_pick_and_place() {
     let full = run(&case);
     let params = Params {
         solver_contact_gap_m: Some(0.003),
-        ..Params::default()
+        ..Params::single_replay()
     };
     let cut = validate(
         &case.robot,
@@ -711,7 +711,7 @@ fn stretched_700_frame_gripper_demo_passes() {
 #[test]
 fn committed_demos_verdicts() {
     let limits = Limits::default();
-    let params = Params::default();
+    let params = Params::single_replay();
     let mut failed = Vec::new();
     for name in ["cube", "mug", "frying_pan", "teapot", "apple", "small_box"] {
         let path = root().join(format!("scenes/demos/{name}.demo.json"));
@@ -880,5 +880,166 @@ fn a_hand_that_pushes_or_turns_the_released_teapot_is_named() {
     assert!(
         !turn["by_hand"]["links"].as_array().unwrap().is_empty(),
         "{turn}"
+    );
+}
+
+/// [`validate`] of `case` with `params`.
+fn run_with(case: &Case, params: &Params) -> PhysicsReport {
+    validate(
+        &case.robot,
+        &case.demo,
+        &case.scene,
+        &case.barriers,
+        &case.mesh,
+        params,
+        &Limits::default(),
+    )
+    .expect("validate")
+}
+
+/// The default ensemble (8 members) on a trajectory built to hold firmly: every member
+/// passes, the decision is a certain keep, and member 0 is the nominal replay.
+#[test]
+fn ensemble_of_a_firm_grasp_passes_in_every_member() {
+    let case = gripper_case(Variant::Good, None);
+    let nominal = run(&case);
+    let report = run_with(&case, &Params::default());
+    let e = report
+        .ensemble
+        .as_ref()
+        .expect("the default params ask for an ensemble");
+    println!("{e:#?}");
+    assert_eq!(e.members, 8);
+    assert_eq!(e.passed, e.replayed, "{:?}", e.member);
+    assert_eq!(e.pass_fraction, 1.0);
+    assert_eq!(e.decision, dexwarp::physics::Decision::Keep);
+    assert!(!e.uncertain, "interval {:?}", e.interval);
+    assert!(report.passed());
+    // The early stop: 7 of 7 already decide a certain keep.
+    assert_eq!(e.replayed, 7);
+    assert!(e.member[0].draw.is_nominal());
+    assert!(e.member[1..].iter().all(|m| !m.draw.is_nominal()));
+    // Member 0 is the nominal replay: the report's figures are its own.
+    assert_eq!(report.tracking, nominal.tracking);
+    assert_eq!(report.drop, nominal.drop);
+}
+
+/// Jaws that open mid-carry drop the box in every member: pass fraction 0, the nominal's
+/// drop as the reason.
+#[test]
+fn ensemble_of_jaws_opening_mid_carry_passes_in_no_member() {
+    let report = run_with(
+        &gripper_case(Variant::OpenMidCarry, None),
+        &Params::default(),
+    );
+    let e = report.ensemble.as_ref().unwrap();
+    println!("{e:#?}");
+    assert_eq!(e.passed, 0, "{:?}", e.member);
+    assert_eq!(e.pass_fraction, 0.0);
+    assert_eq!(e.decision, dexwarp::physics::Decision::Drop);
+    assert!(!e.uncertain);
+    assert!(
+        e.member.iter().all(|m| m
+            .reason
+            .as_deref()
+            .is_some_and(|r| r.starts_with("object dropped"))),
+        "{:?}",
+        e.member
+    );
+    assert!(
+        report.reasons[0].starts_with("object dropped"),
+        "{:?}",
+        report.reasons
+    );
+}
+
+/// At the edge: the gripper shifted sideways along the box (bisection) until the nominal
+/// replay barely holds it, then an ensemble whose members draw a hand offset of σ = 3 mm
+/// around that: some hold, some lose the box, and the interval is the Wilson interval of
+/// what was replayed, narrower for a larger K.
+#[test]
+fn ensemble_at_the_slip_limit_splits_and_its_interval_reflects_k() {
+    let case = gripper_case(Variant::Good, None);
+    let shifted = |dx: f64, params: &Params| {
+        let mut demo = case.demo.clone();
+        for f in &mut demo.frames {
+            f.wrist.translation.vector.x += dx;
+        }
+        validate(
+            &case.robot,
+            &demo,
+            &case.scene,
+            &case.barriers,
+            &case.mesh,
+            params,
+            &Limits::default(),
+        )
+        .expect("validate")
+    };
+    let holds = |dx: f64| shifted(dx, &Params::single_replay()).passed();
+    let (mut lo, mut hi) = (0.0_f64, 0.03_f64);
+    assert!(
+        holds(lo) && !holds(hi),
+        "expected a hold at {lo} m and a miss at {hi} m"
+    );
+    for _ in 0..8 {
+        let mid = 0.5 * (lo + hi);
+        if holds(mid) { lo = mid } else { hi = mid }
+    }
+    println!(
+        "the grasp is lost between {:.2} and {:.2} mm off",
+        lo * 1e3,
+        hi * 1e3
+    );
+    let quiet = dexwarp::physics::EnsembleParams {
+        hand_offset_mm: 3.0,
+        hand_rotation_deg: 0.0,
+        wrist_jitter_mm: 0.0,
+        object_start_mm: 0.0,
+        object_start_yaw_deg: 0.0,
+        friction_spread: 0.0,
+        skin_spread_mm: 0.0,
+        mass_spread: 0.0,
+        ..dexwarp::physics::EnsembleParams::default()
+    };
+    let fractions: Vec<(usize, f64, [f64; 2])> = [8, 24]
+        .into_iter()
+        .map(|k| {
+            let params = Params {
+                ensemble: dexwarp::physics::EnsembleParams {
+                    members: k,
+                    early_stop: false,
+                    ..quiet.clone()
+                },
+                ..Params::default()
+            };
+            let e = shifted(lo, &params).ensemble.unwrap();
+            println!(
+                "K = {k}: {} of {} pass, interval {:?}; x offsets [mm] {:?}",
+                e.passed,
+                e.replayed,
+                e.interval,
+                e.member
+                    .iter()
+                    .map(|m| (m.draw.hand_offset_mm[0], m.passed))
+                    .collect::<Vec<_>>()
+            );
+            assert_eq!(e.replayed, k);
+            assert!(e.member[0].passed, "the nominal holds {lo} m off");
+            assert!(0 < e.passed && e.passed < k, "{} of {k}", e.passed);
+            assert_eq!(e.interval, dexwarp::physics::ensemble::wilson(e.passed, k));
+            // Members drawn a millimetre or more further off lose the box, those nearer
+            // keep it.
+            for m in &e.member {
+                let x = m.draw.hand_offset_mm[0];
+                assert!(x.abs() < 1.0 || m.passed == (x < 0.0), "member {m:?}");
+            }
+            (k, e.pass_fraction, e.interval)
+        })
+        .collect();
+    let width = |i: [f64; 2]| i[1] - i[0];
+    assert!(
+        width(fractions[1].2) < width(fractions[0].2),
+        "intervals {fractions:?}"
     );
 }

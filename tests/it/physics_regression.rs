@@ -192,7 +192,7 @@ fn every_step() -> Params {
     Params {
         skip_rest: false,
         stop_after_drop: false,
-        ..Params::default()
+        ..Params::single_replay()
     }
 }
 
@@ -205,7 +205,7 @@ fn physics_figures_match_the_captured_ones() {
         .map(|c| {
             (
                 replay_file(&c.path, &every_step()),
-                replay_file(&c.path, &Params::default()),
+                replay_file(&c.path, &Params::single_replay()),
             )
         })
         .unzip();
@@ -375,7 +375,7 @@ fn shortcuts_keep_the_verdicts(cases: &[Case], full: &[PhysicsReport], short: &[
 #[ignore]
 fn margins_of_the_base_demonstrations() {
     let limits = Limits::default();
-    let params = Params::default();
+    let params = Params::single_replay();
     let margins: Vec<(String, dexwarp::physics::Margin)> = BASE_DEMOS
         .par_iter()
         .map(|n| {
@@ -450,7 +450,7 @@ fn physics_regression_timing() {
             }
             serde_json::from_value(given).expect("DEXWARP_PHYSICS_PARAMS: Params fields")
         }
-        Err(_) => Params::default(),
+        Err(_) => Params::single_replay(),
     };
     let dir = tempfile::tempdir().unwrap();
     let cases = cases(dir.path());

@@ -115,6 +115,8 @@ pub struct PhysicsArgs {
     /// URDF's effort limits, wrist on a stiff spring).
     #[arg(long, value_enum, value_name = "MODEL")]
     pub physics_hand: Option<PhysicsHandArg>,
+    #[command(flatten)]
+    pub ensemble: EnsembleArgs,
 }
 
 impl PhysicsArgs {
@@ -123,6 +125,32 @@ impl PhysicsArgs {
         PhysicsOptions {
             margin: self.margin,
             hand: self.physics_hand.map(Into::into),
+            ..self.ensemble.options()
+        }
+    }
+}
+
+/// The ensemble verdict's flags (`warp`, `validate`, `batch`, `augment`, `reproduce`).
+#[derive(Debug, Args)]
+pub struct EnsembleArgs {
+    /// Replays per trajectory for the ensemble verdict, the nominal one included (default
+    /// 8, or the config's params.physics.ensemble.members); 1 is a single nominal replay.
+    /// The trajectory is kept when its pass fraction reaches the keep threshold (0.5).
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub ensemble: Option<u32>,
+    /// Seed of the ensemble members' perturbations (default 0, mixed with each
+    /// trajectory's name): the same seed gives the same reports.
+    #[arg(long, value_name = "S")]
+    pub ensemble_seed: Option<u64>,
+}
+
+impl EnsembleArgs {
+    /// The physics options with only the ensemble set.
+    pub fn options(&self) -> PhysicsOptions {
+        PhysicsOptions {
+            ensemble: self.ensemble.map(|k| k as usize),
+            ensemble_seed: self.ensemble_seed,
+            ..PhysicsOptions::default()
         }
     }
 }

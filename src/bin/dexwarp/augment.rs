@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use dexwarp::Limits;
 
-use crate::args::{OutDir, Sharding, Workers};
+use crate::args::{EnsembleArgs, OutDir, Sharding, Workers};
 
 /// Sample N variations of a demonstration from a spec, run each with physics, and sort
 /// them into DIR/kept and DIR/failed with the yield in DIR/stats.json and DIR/index.html.
@@ -44,6 +44,8 @@ pub struct AugmentArgs {
     /// about 4x the time of a plain run).
     #[arg(long)]
     margin: bool,
+    #[command(flatten)]
+    ensemble: EnsembleArgs,
     /// Combine the shard files found in these folders into DIR (--out).
     #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with_all = ["demo", "variations", "count", "shard"])]
     merge: Vec<PathBuf>,
@@ -60,6 +62,7 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
         sharding: Sharding { shard, force },
         compare_baseline,
         margin,
+        ensemble,
         merge,
     } = args;
     let aug = if merge.is_empty() {
@@ -77,6 +80,7 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
             force,
             compare_baseline,
             margin,
+            physics: ensemble.options(),
             limits,
             progress: true,
         })?

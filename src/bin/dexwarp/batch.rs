@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use dexwarp::{Limits, batch};
 
-use crate::args::{OutDir, Sharding, Workers};
+use crate::args::{EnsembleArgs, OutDir, Sharding, Workers};
 
 /// Run many (demo, config) items of a manifest in parallel; a failed item is recorded and
 /// the rest go on.
@@ -23,6 +23,8 @@ pub struct BatchArgs {
     workers: Workers,
     #[command(flatten)]
     sharding: Sharding,
+    #[command(flatten)]
+    ensemble: EnsembleArgs,
 }
 
 pub fn run(args: BatchArgs, limits: Limits) -> Result<()> {
@@ -31,6 +33,7 @@ pub fn run(args: BatchArgs, limits: Limits) -> Result<()> {
         out: OutDir { out },
         workers,
         sharding: Sharding { shard, force },
+        ensemble,
     } = args;
     let items = batch::read_manifest(&manifest, &limits)?;
     let outcomes = batch::run(
@@ -40,6 +43,7 @@ pub fn run(args: BatchArgs, limits: Limits) -> Result<()> {
             jobs: workers.jobs(),
             shard,
             force,
+            physics: ensemble.options(),
             limits,
             progress: true,
         },

@@ -49,6 +49,14 @@ pub struct FilterArgs {
     /// written with `--margin`).
     #[arg(long, conflicts_with = "no_physics")]
     robust: bool,
+    /// Keep items whose ensemble pass fraction reaches this, instead of those the run's own
+    /// keep threshold kept (reports written with --ensemble K > 1, the default).
+    #[arg(long, value_name = "FRACTION", value_parser = fraction, conflicts_with = "no_physics")]
+    min_pass_fraction: Option<f64>,
+    /// Drop items whose ensemble cannot tell which side of the threshold they are on (the
+    /// pass fraction's 95 % interval contains it).
+    #[arg(long)]
+    exclude_uncertain: bool,
 }
 
 pub fn run(args: FilterArgs) -> Result<()> {
@@ -64,6 +72,8 @@ pub fn run(args: FilterArgs) -> Result<()> {
         no_physics,
         allow_narrow_gap,
         robust,
+        min_pass_fraction,
+        exclude_uncertain,
     } = args;
     let criteria = filter::Criteria {
         require_physics_pass: !no_physics,
@@ -75,6 +85,8 @@ pub fn run(args: FilterArgs) -> Result<()> {
         max_onset_mm,
         max_release_turn_deg,
         reject_narrow_gap: !allow_narrow_gap,
+        min_pass_fraction,
+        exclude_uncertain,
     };
     let result = filter::filter(&dir, &criteria)?;
     filter::write_rows(&out, &result.kept)?;

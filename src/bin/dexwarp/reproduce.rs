@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use dexwarp::Limits;
 
-use crate::args::Workers;
+use crate::args::{EnsembleArgs, Workers};
 
 /// The main job: every config in scenes/configs at the paper's thresholds, with Adam and
 /// the baseline, the robustness sweep, physics on every output; the paper's tables and an
@@ -28,6 +28,10 @@ pub struct ReproduceArgs {
     /// this binary was built from).
     #[arg(long, value_name = "DIR")]
     root: Option<PathBuf>,
+    /// The ensemble verdict of the baseline comparison's runs (contact IK at 3.5 mm and the
+    /// baseline); the other runs of the tables replay once.
+    #[command(flatten)]
+    ensemble: EnsembleArgs,
 }
 
 pub fn run(args: ReproduceArgs, limits: Limits) -> Result<()> {
@@ -36,6 +40,7 @@ pub fn run(args: ReproduceArgs, limits: Limits) -> Result<()> {
         quick,
         workers,
         root,
+        ensemble,
     } = args;
     let root = match root {
         Some(r) if r.join("scenes/configs").is_dir() => r,
@@ -50,6 +55,7 @@ pub fn run(args: ReproduceArgs, limits: Limits) -> Result<()> {
         root,
         quick,
         jobs: workers.jobs(),
+        physics: ensemble.options(),
         limits,
         progress: true,
     })?;
