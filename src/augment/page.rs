@@ -126,6 +126,28 @@ pub(crate) fn histogram(title: &str, x_label: &str, counted: &str, values: &[f64
     svg
 }
 
+/// The run's ensemble verdicts in one paragraph.
+fn ensemble_line(e: &super::stats::EnsembleStats) -> String {
+    format!(
+        "<p>ensemble verdicts: {} samples, median pass fraction {}; {} uncertain (the 95 % interval contains the keep threshold), {} of them kept; {} of {} replays run</p>\n",
+        e.samples,
+        num(e.pass_fraction.median, 2),
+        e.uncertain,
+        e.uncertain_kept,
+        e.replayed,
+        e.asked
+    )
+}
+
+/// A pass fraction for the samples table: `0.62`, `0.62 ?` when uncertain, `-` without one.
+fn fraction(f: Option<f64>, uncertain: Option<bool>) -> String {
+    match f {
+        None => "-".into(),
+        Some(f) if uncertain == Some(true) => format!("{f:.2} ?"),
+        Some(f) => format!("{f:.2}"),
+    }
+}
+
 /// A hand's status for the samples table, `kept, robust` when its margin holds under every
 /// condition.
 fn with_robust(status: &str, robust: Option<bool>) -> String {
@@ -157,6 +179,18 @@ fn baseline_section(b: &BaselineStats) -> String {
         p.neither,
         p.p_text()
     );
+    if let Some(f) = &b.paired_pass_fraction {
+        h.push_str(&format!(
+            "<p>pass fractions over the {} samples both hands ran: contact IK {:.2}, baseline {:.2} (mean); higher for contact IK on {}, for the baseline on {}, equal on {}; Wilcoxon signed-rank p {}</p>\n",
+            f.samples,
+            f.contact_ik_mean,
+            f.baseline_mean,
+            f.contact_ik_higher,
+            f.baseline_higher,
+            f.equal,
+            f.p_text()
+        ));
+    }
     if let (Some(r), Some(p)) = (&b.robust, &b.paired_robust) {
         h.push_str(&format!(
             "<p class=\"note\">robust: kept, and the robustness margin holds under every condition (friction ×0.75 and ×0.5, mass ×1.5)</p>\n<table><tr><th>baseline: robust</th><th>yield</th><th>of its kept</th><th>both robust</th><th>only contact IK</th><th>only baseline</th><th>neither</th><th title=\"{MCNEMAR}\">McNemar p</th></tr>\n<tr><td>{}</td><td>{:.1} %</td><td>{:.1} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>\n",
@@ -258,6 +292,9 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
             r.yield_ * 100.0
         ));
     }
+    if let Some(e) = &stats.ensemble {
+        body.push_str(&ensemble_line(e));
+    }
     if let Some(b) = &stats.baseline {
         body.push_str(&baseline_section(b));
     }
@@ -301,7 +338,7 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
             rows.len()
         ));
     }
-    body.push_str("<table>\n<tr><th>sample</th><th>status</th><th>waypoints</th><th>barriers</th><th>threshold [mm]</th><th>D_C [mm]</th><th>ΔD_WO [mm]</th><th>PLR</th><th>timewarp</th><th>stretch</th><th>baseline</th><th>baseline D_C [mm]</th><th>files</th><th>reasons</th></tr>\n");
+    body.push_str("<table>\n<tr><th>sample</th><th>status</th><th>pass fraction</th><th>waypoints</th><th>barriers</th><th>threshold [mm]</th><th>D_C [mm]</th><th>ΔD_WO [mm]</th><th>PLR</th><th>timewarp</th><th>stretch</th><th>baseline</th><th>baseline D_C [mm]</th><th>files</th><th>reasons</th></tr>\n");
     for r in rows.iter().take(TABLE_ROWS) {
         let files = if r.status == "rejected" {
             String::new()
@@ -312,10 +349,11 @@ pub fn write(out: &Path, stats: &Stats, rows: &[Row]) -> Result<()> {
             )
         };
         body.push_str(&format!(
-            "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{files}</td><td class=\"why\">{}</td></tr>\n",
+            "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{files}</td><td class=\"why\">{}</td></tr>\n",
             escape(&r.id),
             escape(&r.status),
             with_robust(&r.status, r.robust),
+            fraction(r.pass_fraction, r.uncertain),
             r.waypoints,
             r.barriers,
             r.threshold_mm,

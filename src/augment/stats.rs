@@ -388,6 +388,53 @@ pub struct BaselineStats {
     pub robust: Option<Robust>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paired_robust: Option<Paired>,
+    /// With the ensemble verdict: the two hands' pass fractions paired per sample.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paired_pass_fraction: Option<PairedFractions>,
+}
+
+/// Both hands' pass fractions over the samples where both have an ensemble
+/// (`stats.json` `baseline.paired_pass_fraction`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PairedFractions {
+    /// Samples with both pass fractions.
+    pub samples: u64,
+    /// Mean pass fraction of each hand over them.
+    pub contact_ik_mean: f64,
+    pub baseline_mean: f64,
+    /// Samples where contact IK's is higher, the baseline's, and equal.
+    pub contact_ik_higher: u64,
+    pub baseline_higher: u64,
+    pub equal: u64,
+    /// The exact two-sided Wilcoxon signed-rank test of the differences
+    /// ([`crate::math::signed_rank`]): below 0.05 the two hands' pass fractions differ by
+    /// more than the draw of samples explains.
+    pub signed_rank_p: f64,
+}
+
+impl PairedFractions {
+    fn of(pairs: &[(f64, f64)]) -> Option<PairedFractions> {
+        if pairs.is_empty() {
+            return None;
+        }
+        let n = pairs.len() as f64;
+        let d: Vec<f64> = pairs.iter().map(|(c, b)| c - b).collect();
+        let test = crate::math::signed_rank::signed_rank(&d);
+        Some(PairedFractions {
+            samples: pairs.len() as u64,
+            contact_ik_mean: pairs.iter().map(|p| p.0).sum::<f64>() / n,
+            baseline_mean: pairs.iter().map(|p| p.1).sum::<f64>() / n,
+            contact_ik_higher: test.positive as u64,
+            baseline_higher: test.negative as u64,
+            equal: (pairs.len() - test.n) as u64,
+            signed_rank_p: test.p,
+        })
+    }
+
+    /// `signed_rank_p` for a page or a terminal.
+    pub fn p_text(&self) -> String {
+        format_p(self.signed_rank_p)
+    }
 }
 
 /// The ensemble verdicts of a run's samples (`stats.json` `ensemble`).
@@ -675,6 +722,11 @@ impl BaselineStats {
                     (is_robust(contact_hand(r)), is_robust(baseline_hand(r)))
                 })));
         }
+        let fractions: Vec<(f64, f64)> = ran
+            .iter()
+            .filter_map(|r| Some((r.pass_fraction?, r.baseline_pass_fraction?)))
+            .collect();
+        b.paired_pass_fraction = PairedFractions::of(&fractions);
         b.yield_ = ratio(b.passed, rows.len() as u64);
         b.pass_rate = ratio(b.passed, b.ran);
         let pair = |contact: Metric, base: Metric| {

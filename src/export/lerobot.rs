@@ -330,7 +330,8 @@ fn data_batch(
 
 /// The `quality/...` float columns: name and getter.
 type Getter = fn(&super::Quality) -> Option<f64>;
-pub const QUALITY_FLOATS: [(&str, Getter); 13] = [
+pub const QUALITY_FLOATS: [(&str, Getter); 14] = [
+    ("quality/pass_fraction", |q| q.pass_fraction),
     ("quality/d_c_mm", |q| q.d_c_mm),
     ("quality/d_c_original_mm", |q| q.d_c_original_mm),
     ("quality/d_wo_mm", |q| q.d_wo_mm),
@@ -462,6 +463,14 @@ fn episodes_batch(
         true,
         Arc::new(BooleanArray::from_iter(
             eps.iter().map(|e| e.quality.robust),
+        )),
+    );
+    push(
+        "quality/uncertain",
+        DataType::Boolean,
+        true,
+        Arc::new(BooleanArray::from_iter(
+            eps.iter().map(|e| e.quality.uncertain),
         )),
     );
     push(

@@ -97,6 +97,10 @@ pub struct Quality {
     /// The robustness margin holds under every condition (`physics.robust`); `None` when the
     /// report has no margin.
     pub robust: Option<bool>,
+    /// The ensemble's pass fraction (`physics.ensemble`); `None` for a single replay.
+    pub pass_fraction: Option<f64>,
+    /// The ensemble's 95 % interval contains its keep threshold; `None` for a single replay.
+    pub uncertain: Option<bool>,
     pub d_c_mm: Option<f64>,
     pub d_c_original_mm: Option<f64>,
     pub d_wo_mm: Option<f64>,
@@ -219,6 +223,8 @@ pub fn quality_of(report: &Report, report_path: &str) -> Quality {
         verdict: phys.map_or("unknown".into(), |p| p.verdict.clone()),
         failure_reasons: phys.map(|p| p.reasons.clone()).unwrap_or_default(),
         robust: phys.and_then(|p| p.robust()),
+        pass_fraction: phys.and_then(|p| p.pass_fraction()),
+        uncertain: phys.and_then(|p| p.uncertain()),
         d_c_mm: Some(m.d_c_mm.warped),
         d_c_original_mm: Some(m.d_c_mm.original),
         d_wo_mm: Some(m.d_wo_mm.warped),

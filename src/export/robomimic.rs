@@ -10,7 +10,7 @@
 //!   `num_samples` (frames, int64), the quality figures of [`super::Quality`] as attributes
 //!   (floats as float64, left out when the report does not have them; `name`, `verdict`,
 //!   `source_demo`, `config`, `report`, `task` as strings; `passed` as bool (and `robust`
-//!   when the report has a robustness margin);
+//!   when the report has a robustness margin, `uncertain` when it has an ensemble);
 //!   `failure_reasons` as a JSON list of strings), and the datasets
 //!   - `obs/<key>` and `next_obs/<key>` ([`OBS_KEYS`], float32 `[N, width]`; `next_obs` is
 //!     the next frame's, the last frame repeats its own),
@@ -182,6 +182,9 @@ fn write_demo(
     scalar_attr(path, &g, "passed", passed)?;
     if let Some(robust) = q.robust {
         scalar_attr(path, &g, "robust", robust)?;
+    }
+    if let Some(uncertain) = q.uncertain {
+        scalar_attr(path, &g, "uncertain", uncertain)?;
     }
     for (column, get) in super::lerobot::QUALITY_STRINGS {
         str_attr(path, &g, attr_name(column), get(q))?;

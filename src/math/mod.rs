@@ -9,6 +9,7 @@ pub mod quantile;
 pub mod rotation;
 pub mod savgol;
 pub mod sign_test;
+pub mod signed_rank;
 
 /// SplitMix64's finalizer: a bijection of `u64` that mixes every bit.
 pub fn splitmix64(mut z: u64) -> u64 {

@@ -270,6 +270,15 @@ impl PhysicsSummary {
         (get("members"), get("replayed"))
     }
 
+    /// The ensemble's members that passed and members replayed; `None` for a single replay.
+    pub fn ensemble_count(&self) -> Option<(usize, usize)> {
+        let e = self.ensemble()?;
+        Some((
+            e.get("passed")?.as_u64()? as usize,
+            e.get("replayed")?.as_u64()? as usize,
+        ))
+    }
+
     /// The seed of the ensemble's draws; `None` for a single replay.
     pub fn ensemble_seed(&self) -> Option<u64> {
         self.ensemble()?.get("seed")?.as_u64()

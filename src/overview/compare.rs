@@ -7,7 +7,10 @@
 //! are listed but do not count as worse (either direction can be the intent of a change).
 //! Timing is listed apart (stage totals per item slower by more than `time_ratio` and by
 //! more than a second; the run's totals) and never counts as worse: it depends on the
-//! machine.
+//! machine. With an ensemble verdict on both sides, a verdict flip or a fall of the pass
+//! fraction is worse only when the fall is beyond what the two ensembles' intervals allow
+//! ([`crate::physics::ensemble::dropped_significantly`]): two runs of the same code with other
+//! ensemble seeds differ by chance at the edge, and that is not a regression.
 
 use super::{Item, seconds};
 use crate::model::report::Report;
@@ -84,6 +87,15 @@ fn rank(status: &str) -> u8 {
     }
 }
 
+/// `(passed, replayed)` of an item's ensemble, when its report has one.
+fn ensemble_counts(item: &Item) -> Option<(usize, usize)> {
+    item.finished()?.physics.as_ref()?.ensemble_count()
+}
+
+fn fraction_text(before: (usize, usize), now: (usize, usize)) -> String {
+    format!("{}/{} -> {}/{}", before.0, before.1, now.0, now.1)
+}
+
 fn first(reasons: &[String]) -> String {
     reasons
         .first()
@@ -110,12 +122,39 @@ pub fn compare(previous: &str, before: &[Item], now: &[Item], tol: &Tolerances) 
         };
         matched += 1;
         let (sb, sn) = (b.status(), n.status());
+        let fractions = ensemble_counts(b).zip(ensemble_counts(n));
         if sb != sn {
+            // With an ensemble on both sides, a flip is worse only when the pass fraction
+            // fell by more than the two ensembles' intervals allow.
+            let (worse, why) = match fractions {
+                Some((fb, fnow)) if rank(sb) < 2 && rank(sn) < 2 => {
+                    let worse = crate::physics::ensemble::dropped_significantly(fb, fnow);
+                    let words = if worse {
+                        "a drop beyond both intervals"
+                    } else {
+                        "within what two ensembles differ by"
+                    };
+                    (
+                        worse,
+                        format!(" [pass fraction {}, {words}]", fraction_text(fb, fnow)),
+                    )
+                }
+                _ => (rank(sn) > rank(sb), String::new()),
+            };
             changes.push(change(
                 &n.id,
                 "verdict",
-                format!("{sb} -> {sn}{}", first(&n.reasons())),
-                rank(sn) > rank(sb),
+                format!("{sb} -> {sn}{why}{}", first(&n.reasons())),
+                worse,
+            ));
+        } else if let Some((fb, fnow)) = fractions
+            && crate::physics::ensemble::dropped_significantly(fb, fnow)
+        {
+            changes.push(change(
+                &n.id,
+                "pass fraction",
+                format!("{} (a drop beyond both intervals)", fraction_text(fb, fnow)),
+                true,
             ));
         }
         let (Some(rb), Some(rn)) = (b.finished(), n.finished()) else {
@@ -306,6 +345,60 @@ mod tests {
                 ..Report::default()
             }),
         }
+    }
+
+    /// An item whose ensemble passed `passed` of `replayed`, its verdict the decision at 0.5.
+    fn ensemble_item(passed: usize, replayed: usize) -> Item {
+        let keep = 2 * passed >= replayed;
+        let mut physics = PhysicsSummary {
+            verdict: if keep { "pass" } else { "fail" }.into(),
+            ..PhysicsSummary::default()
+        };
+        physics.measures.insert(
+            "ensemble".into(),
+            serde_json::json!({"passed": passed, "replayed": replayed, "members": 8,
+                "pass_fraction": passed as f64 / replayed as f64}),
+        );
+        Item {
+            id: "a".into(),
+            dir: "a".into(),
+            report: Ok(Report {
+                physics: Some(physics),
+                ..Report::default()
+            }),
+        }
+    }
+
+    /// With ensembles on both sides a verdict flip is listed, but worse only when the pass
+    /// fraction fell beyond both intervals; such a fall without a flip is worse too.
+    #[test]
+    fn a_flip_within_the_ensembles_intervals_is_not_worse() {
+        let tol = Tolerances::default();
+        let run = |b: (usize, usize), n: (usize, usize)| {
+            compare(
+                "prev",
+                &[ensemble_item(b.0, b.1)],
+                &[ensemble_item(n.0, n.1)],
+                &tol,
+            )
+        };
+        let c = run((5, 8), (3, 8));
+        assert_eq!(c.changes.len(), 1, "{:?}", c.changes);
+        assert_eq!(c.worse(), 0, "{:?}", c.changes);
+        assert!(
+            c.changes[0]
+                .text
+                .contains("within what two ensembles differ by")
+        );
+        let c = run((8, 8), (1, 8));
+        assert_eq!(c.worse(), 1, "{:?}", c.changes);
+        assert!(c.changes[0].text.contains("beyond both intervals"));
+        let c = run((8, 8), (4, 8));
+        assert_eq!(
+            (c.changes[0].what.as_str(), c.worse()),
+            ("pass fraction", 1)
+        );
+        assert!(run((3, 8), (8, 8)).changes.iter().all(|c| !c.worse));
     }
 
     /// A grasp that pushes the object further as it closes is worse beyond the tolerance;

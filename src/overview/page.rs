@@ -57,6 +57,45 @@ fn label(it: &Item) -> String {
     }
 }
 
+/// The ensemble's pass fraction, `3/8 (0.38, uncertain)`, or `-` for a single replay.
+fn pass_fraction(r: Option<&crate::model::report::Report>) -> String {
+    let p = r.and_then(|r| r.physics.as_ref());
+    match p.and_then(|p| Some((p.ensemble_count()?, p.pass_fraction()?, p.uncertain()))) {
+        None => "-".into(),
+        Some(((x, n), f, uncertain)) => format!(
+            "{x}/{n} ({f:.2}{})",
+            if uncertain == Some(true) {
+                ", uncertain"
+            } else {
+                ""
+            }
+        ),
+    }
+}
+
+/// Every ensemble member's outcome, one line each (the pass-fraction cell's tooltip).
+fn members(r: Option<&crate::model::report::Report>) -> String {
+    let Some(e) = r
+        .and_then(|r| r.physics.as_ref())
+        .and_then(|p| p.ensemble())
+    else {
+        return String::new();
+    };
+    e["member"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|m| {
+            format!(
+                "member {}: {}",
+                m["index"],
+                m["reason"].as_str().unwrap_or("pass")
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// The robustness margin's sentence (`warp --margin`), `robust` when every condition
 /// holds, `-` when the report has none.
 fn margin(r: Option<&crate::model::report::Report>) -> String {
@@ -251,7 +290,7 @@ fn items_table(
     playable: &std::collections::HashSet<&str>,
     no_player: &BTreeMap<String, String>,
 ) {
-    body.push_str("<h2>Items</h2>\n<table><tr><th>item</th><th>hand</th><th>threshold [mm]</th><th>verdict</th><th>first reason</th><th>D_C [mm]</th><th>D_WO [mm]</th><th>PLR object</th><th>timewarp disc.</th><th>penetration [mm]</th><th>margin</th><th>time [s]</th></tr>\n");
+    body.push_str("<h2>Items</h2>\n<table><tr><th>item</th><th>hand</th><th>threshold [mm]</th><th>verdict</th><th>pass fraction</th><th>first reason</th><th>D_C [mm]</th><th>D_WO [mm]</th><th>PLR object</th><th>timewarp disc.</th><th>penetration [mm]</th><th>margin</th><th>time [s]</th></tr>\n");
     for it in items.iter().take(TABLE_ROWS) {
         let reasons = it.reasons();
         let name = if playable.contains(it.id.as_str()) {
@@ -270,11 +309,13 @@ fn items_table(
         };
         let r = it.finished();
         body.push_str(&format!(
-            "<tr class=\"{}\"><td>{name}</td><td>{}</td><td>{}</td><td>{}</td><td title=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+            "<tr class=\"{}\"><td>{name}</td><td>{}</td><td>{}</td><td>{}</td><td title=\"{}\">{}</td><td title=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
             if matches!(it.status(), "fail" | "error") { "bad" } else { "" },
             escape(r.and_then(|r| r.hand.as_deref()).unwrap_or("-")),
             num(r.and_then(|r| r.threshold_mm), 1),
             escape(it.status()),
+            escape(&members(r)),
+            escape(&pass_fraction(r)),
             escape(&reasons.join("; ")),
             escape(reasons.first().map_or("", String::as_str)),
             num(r.map(|r| r.metrics.d_c_mm.warped), 2),

@@ -404,6 +404,20 @@ pub fn wilson(passed: usize, n: usize) -> [f64; 2] {
     [(centre - half).max(0.0), (centre + half).min(1.0)]
 }
 
+/// Whether a pass fraction fell by more than two ensembles can tell apart by chance: the
+/// lower end of the 95 % interval of `before − now` is above 0 (Newcombe's hybrid score
+/// interval for a difference of two independent proportions, built from the two Wilson
+/// intervals). `(passed, replayed)` for each run. 8 of 8 against 3 of 8 is a drop; against 5
+/// of 8 it is not (the draws of two seeds differ by that).
+pub fn dropped_significantly(before: (usize, usize), now: (usize, usize)) -> bool {
+    let p = |(x, n): (usize, usize)| x as f64 / n.max(1) as f64;
+    let (pb, pn) = (p(before), p(now));
+    let [lb, _] = wilson(before.0, before.1);
+    let [_, un] = wilson(now.0, now.1);
+    let lower = (pb - pn) - ((pb - lb).powi(2) + (un - pn).powi(2)).sqrt();
+    lower > 0.0
+}
+
 /// Decision and certainty of `passed` of `n` at `threshold`.
 pub fn decide(passed: usize, n: usize, threshold: f64) -> (Decision, bool) {
     let fraction = passed as f64 / n.max(1) as f64;
@@ -515,6 +529,16 @@ mod tests {
         assert!(!can_stop(1, 7, 8, 0.5));
         // All replayed: nothing left to change.
         assert!(can_stop(3, 8, 8, 0.5));
+    }
+
+    #[test]
+    fn a_drop_counts_when_the_intervals_allow_it() {
+        assert!(dropped_significantly((8, 8), (3, 8)));
+        assert!(dropped_significantly((8, 8), (4, 8)));
+        assert!(!dropped_significantly((8, 8), (5, 8)));
+        assert!(!dropped_significantly((5, 8), (3, 8)));
+        assert!(!dropped_significantly((3, 8), (8, 8)));
+        assert!(dropped_significantly((7, 7), (0, 8)));
     }
 
     #[test]

@@ -374,22 +374,27 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
             "onset contact IK [mm]",
             "physics baseline",
             "physics contact IK",
+            "pass fraction baseline",
+            "pass fraction contact IK",
             "margin baseline",
             "margin contact IK",
         ]
         .map(String::from)
         .to_vec(),
-        note: "Stretched frames: output frames whose bracketing input step got more than one output frame (τ(s+1) − τ(s) > 1). Onset: the simulated object's distance from its plan at the first contact frame, how far the hand's approach and closing moved it before the carry. Physics: verdict, then the failed reasons. Margin: the weakest of the robustness conditions (friction μ, mass scale) under which the pass still holds, \"robust\" when it holds under all of them (μ 0.50 at 1.5x mass); a pass that holds only at μ 1.00 and 1.0x mass is at the edge, where a change as small as the order of the solver's constraints can flip it.".into(),
+        note: "Stretched frames: output frames whose bracketing input step got more than one output frame (τ(s+1) − τ(s) > 1). Onset: the simulated object's distance from its plan at the first contact frame, how far the hand's approach and closing moved it before the carry. Physics: verdict (the ensemble's decision), then the failed reasons. Pass fraction: the replays of the ensemble verdict that passed (the nominal one and the others under seeded hand offset, object start, friction, mass and skin draws), `?` when its 95 % interval contains the keep threshold. Margin: the weakest of the robustness conditions (friction μ, mass scale) under which the pass still holds, \"robust\" when it holds under all of them (μ 0.50 at 1.5x mass); a pass that holds only at μ 1.00 and 1.0x mass is at the edge, where a change as small as the order of the solver's constraints can flip it.".into(),
         ..Table::default()
     };
     let worst = |r: Option<&Report>| match r.and_then(|r| r.metrics.d_c_worst) {
         Some(w) => format!("{} ({:.1})", w.frame, w.d_c_mm),
         None => "--".into(),
     };
-    let (mut passes, mut robust) = (Vec::new(), Vec::new());
+    let (mut passes, mut robust, mut fractions) = (Vec::new(), Vec::new(), Vec::new());
     for c in configs(rep) {
         let (b, k) = (ok(rep, &c, "baseline"), ok(rep, &c, &lm(3.5)));
         passes.push((passed(k), passed(b)));
+        if let (Some(fk), Some(fb)) = (pass_fraction(k), pass_fraction(b)) {
+            fractions.push((fk, fb));
+        }
         robust.push((is_robust(k), is_robust(b)));
         let stretched = |r: Option<&Report>| match r {
             Some(r) if r.metrics.stretched_frames == 0 => "--".to_string(),
@@ -410,17 +415,64 @@ pub fn baseline_table(rep: &Reproduction) -> Table {
             onset(k),
             verdict_reasons(b),
             verdict_reasons(k),
+            fraction_cell(b),
+            fraction_cell(k),
             margin(b),
             margin(k),
         ]);
     }
     t.note = format!(
-        "{} {} {}",
+        "{} {} {} {}",
         t.note,
         paired_sentence("Physics passes", &passes),
-        paired_sentence("Robust passes", &robust)
+        paired_sentence("Robust passes", &robust),
+        fraction_sentence(&fractions)
     );
     t
+}
+
+/// The ensemble's pass fraction of a run.
+fn pass_fraction(r: Option<&Report>) -> Option<f64> {
+    r?.physics.as_ref()?.pass_fraction()
+}
+
+/// `5/8 (0.62 ?)`: passed of replayed, the fraction, `?` when uncertain; `--` without one.
+fn fraction_cell(r: Option<&Report>) -> String {
+    let Some(p) = r.and_then(|r| r.physics.as_ref()) else {
+        return "--".into();
+    };
+    match (p.ensemble_count(), p.pass_fraction()) {
+        (Some((x, n)), Some(f)) => format!(
+            "{x}/{n} ({f:.2}{})",
+            if p.uncertain() == Some(true) {
+                " ?"
+            } else {
+                ""
+            }
+        ),
+        _ => "--".into(),
+    }
+}
+
+/// `Pass fractions: contact IK 0.91, baseline 0.85 (mean over 19 configs); higher for ...
+/// (Wilcoxon signed-rank p = ...)`, or nothing without ensembles.
+fn fraction_sentence(pairs: &[(f64, f64)]) -> String {
+    if pairs.is_empty() {
+        return String::new();
+    }
+    let n = pairs.len() as f64;
+    let d: Vec<f64> = pairs.iter().map(|(k, b)| k - b).collect();
+    let test = crate::math::signed_rank::signed_rank(&d);
+    format!(
+        "Pass fractions: contact IK {:.2}, baseline {:.2} (mean over {} configs); higher for contact IK on {}, for the baseline on {}, equal on {} (exact Wilcoxon signed-rank p = {}).",
+        pairs.iter().map(|p| p.0).sum::<f64>() / n,
+        pairs.iter().map(|p| p.1).sum::<f64>() / n,
+        pairs.len(),
+        test.positive,
+        test.negative,
+        pairs.len() - test.n,
+        crate::math::sign_test::format_p(test.p)
+    )
 }
 
 /// `Physics passes: contact IK 19, baseline 17 of 19; only contact IK 2, only the baseline

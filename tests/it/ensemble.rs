@@ -130,3 +130,74 @@ fn ensemble_reports_are_seeded_and_filter_decides_on_them() {
         assert!(dropped.contains("physics: pass fraction"), "{dropped}");
     }
 }
+
+/// A copy of built-in demonstration `name` in `dir` with absolute paths, its hand shifted by
+/// `shift` [m] along world x at every frame (the same name, so the same ensemble draws).
+fn shifted_demo(name: &str, dir: &std::path::Path, shift: f64) -> std::path::PathBuf {
+    let src = repo(&format!("scenes/demos/{name}.demo.json"));
+    let base = src.parent().unwrap();
+    let mut d = read(&src);
+    let abs = |v: &Value| Value::from(base.join(v.as_str().unwrap()).to_str().unwrap());
+    d["robot"] = abs(&d["robot"]);
+    d["object"]["mesh"] = abs(&d["object"]["mesh"]);
+    d["scene"] = abs(&d["scene"]);
+    for f in d["frames"].as_array_mut().unwrap() {
+        let x = f["wrist"]["position"][0].as_f64().unwrap();
+        f["wrist"]["position"][0] = Value::from(x + shift);
+    }
+    let path = dir.join(format!("{name}.demo.json"));
+    std::fs::write(&path, serde_json::to_vec(&d).unwrap()).unwrap();
+    path
+}
+
+/// `report --compare` on ensemble verdicts: two runs of the same trajectories with other
+/// ensemble seeds exit 0 whatever their verdicts at the edge do; the teapot's hand 5 mm off
+/// (its pass fraction falls to none) exits 1 and says why.
+#[test]
+fn report_compare_flags_a_real_drop_in_pass_fraction_and_not_another_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = dir.path().join("inputs");
+    std::fs::create_dir_all(&inputs).unwrap();
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    for (run, seed, shift) in [("a", "0", 0.0), ("b", "2", 0.0), ("off", "0", 0.005)] {
+        for name in ["teapot", "cube"] {
+            let shift = if name == "teapot" { shift } else { 0.0 };
+            let demo = shifted_demo(name, &inputs, shift);
+            let out = dir.path().join(run).join(name);
+            let o = dexwarp(&[
+                "validate",
+                &s(&demo),
+                "--out",
+                &s(&out),
+                "--ensemble-seed",
+                seed,
+            ]);
+            assert!(o.status.success(), "{}", stderr(&o));
+        }
+    }
+    let compare = |run: &str| {
+        let o = dexwarp(&[
+            "report",
+            &s(&dir.path().join(run)),
+            "--compare",
+            &s(&dir.path().join("a")),
+            "--out",
+            &s(&dir.path().join(format!("{run}.html"))),
+        ]);
+        let md = std::fs::read_to_string(dir.path().join("compare.md")).unwrap_or_default();
+        (o.status.code(), md, stderr(&o))
+    };
+    let (code, md, err) = compare("b");
+    assert_eq!(
+        code,
+        Some(0),
+        "another ensemble seed is not a regression:\n{md}\n{err}"
+    );
+    let (code, md, err) = compare("off");
+    assert_eq!(
+        code,
+        Some(1),
+        "the hand 5 mm off is a regression:\n{md}\n{err}"
+    );
+    assert!(md.contains("beyond both intervals"), "{md}");
+}

@@ -107,6 +107,19 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
         s.timing.samples_per_hour,
         out.join(file).display()
     );
+    if let Some(e) = &s.ensemble {
+        eprintln!(
+            "ensemble verdicts: {} samples, median pass fraction {}, {} uncertain ({} of them kept); {} of {} replays run (the early stop saved the rest)",
+            e.samples,
+            e.pass_fraction
+                .median
+                .map_or("-".into(), |m| format!("{m:.2}")),
+            e.uncertain,
+            e.uncertain_kept,
+            e.replayed,
+            e.asked
+        );
+    }
     if let Some(r) = &s.robust {
         eprintln!(
             "robust (the margin holds under every condition): {} of the {} kept (yield {:.1} %)",
@@ -116,46 +129,63 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
         );
     }
     if let Some(b) = &s.baseline {
-        let p = &b.paired;
+        print_baseline(b);
+    }
+    Ok(())
+}
+
+/// The baseline comparison's lines (`--compare-baseline`).
+fn print_baseline(b: &dexwarp::augment::stats::BaselineStats) {
+    let p = &b.paired;
+    eprintln!(
+        "baseline hand: {} kept of {} ran (yield {:.1} %); paired: both {}, only contact IK {}, only baseline {}, neither {} (McNemar p {})",
+        b.passed,
+        b.ran,
+        b.yield_ * 100.0,
+        p.both,
+        p.only_contact_ik,
+        p.only_baseline,
+        p.neither,
+        p.p_text()
+    );
+    if let Some(f) = &b.paired_pass_fraction {
         eprintln!(
-            "baseline hand: {} kept of {} ran (yield {:.1} %); paired: both {}, only contact IK {}, only baseline {}, neither {} (McNemar p {})",
+            "pass fractions over {} samples: contact IK {:.2}, baseline {:.2} (mean); higher for contact IK on {}, for the baseline on {}, equal on {} (signed-rank p {})",
+            f.samples,
+            f.contact_ik_mean,
+            f.baseline_mean,
+            f.contact_ik_higher,
+            f.baseline_higher,
+            f.equal,
+            f.p_text()
+        );
+    }
+    let c = &b.failed_by_cause;
+    eprintln!(
+        "lost in the grasp: contact IK {}, baseline {}; pushed after the release: {}, {} (stats.json baseline.failed_by_cause has every cause)",
+        c.contact_ik.lost_in_grasp,
+        c.baseline.lost_in_grasp,
+        c.contact_ik.pushed_after_release,
+        c.baseline.pushed_after_release
+    );
+    let o = &b.onset_error_mm;
+    if let (Some(ik), Some(base)) = (o.contact_ik.median, o.baseline.median) {
+        eprintln!(
+            "object off its plan as the carry starts (the approach and closing moved it), median of {}: contact IK {ik:.1} mm, baseline {base:.1} mm",
+            o.contact_ik.n
+        );
+    }
+    if let (Some(r), Some(p)) = (&b.robust, &b.paired_robust) {
+        eprintln!(
+            "baseline robust: {} of its {} kept (yield {:.1} %); paired robust: both {}, only contact IK {}, only baseline {}, neither {} (McNemar p {})",
+            r.kept,
             b.passed,
-            b.ran,
-            b.yield_ * 100.0,
+            r.yield_ * 100.0,
             p.both,
             p.only_contact_ik,
             p.only_baseline,
             p.neither,
             p.p_text()
         );
-        let c = &b.failed_by_cause;
-        eprintln!(
-            "lost in the grasp: contact IK {}, baseline {}; pushed after the release: {}, {} (stats.json baseline.failed_by_cause has every cause)",
-            c.contact_ik.lost_in_grasp,
-            c.baseline.lost_in_grasp,
-            c.contact_ik.pushed_after_release,
-            c.baseline.pushed_after_release
-        );
-        let o = &b.onset_error_mm;
-        if let (Some(ik), Some(base)) = (o.contact_ik.median, o.baseline.median) {
-            eprintln!(
-                "object off its plan as the carry starts (the approach and closing moved it), median of {}: contact IK {ik:.1} mm, baseline {base:.1} mm",
-                o.contact_ik.n
-            );
-        }
-        if let (Some(r), Some(p)) = (&b.robust, &b.paired_robust) {
-            eprintln!(
-                "baseline robust: {} of its {} kept (yield {:.1} %); paired robust: both {}, only contact IK {}, only baseline {}, neither {} (McNemar p {})",
-                r.kept,
-                b.passed,
-                r.yield_ * 100.0,
-                p.both,
-                p.only_contact_ik,
-                p.only_baseline,
-                p.neither,
-                p.p_text()
-            );
-        }
     }
-    Ok(())
 }
