@@ -18,7 +18,12 @@
 //!    (ObMan/GraspTTA: hand frozen, gravity, no support, 35 steps of 1/240 s), and where
 //!    the object ends after the release;
 //! 5. **verdict**: every failed check as a sentence (`verdict.rs`), in a [`PhysicsReport`]
-//!    that converts to the report's `PhysicsSummary`.
+//!    that converts to the report's `PhysicsSummary`;
+//! 6. **ensemble** ([`ensemble`]): with [`Params::ensemble`] asking for more than one
+//!    member (8 by default), steps 3-5 again under seeded perturbations, and the verdict
+//!    becomes the decision on their pass fraction. Everything below measures single replays
+//!    (member 0, or `ensemble.members = 1`); the single verdicts it calls "at the edge" are
+//!    what the ensemble reports as `uncertain`.
 //!
 //! # Finger softness: why a contact skin
 //!
