@@ -172,23 +172,25 @@ fn input() -> Input {
     }
 }
 
-/// The replay's parameters: the defaults (rest spans out of the hand's reach skipped, stop
-/// after a drop), or every step simulated.
+/// The replay's parameters: one replay with the defaults (rest spans out of the hand's reach
+/// skipped, stop after a drop), one with every step simulated, or the whole default ensemble
+/// verdict (8 replays, early stop).
 fn params(mode: &str) -> Params {
     match mode {
         "every_step" => Params {
             skip_rest: false,
             stop_after_drop: false,
-            ..Params::default()
+            ..Params::single_replay()
         },
-        _ => Params::default(),
+        "ensemble" => Params::default(),
+        _ => Params::single_replay(),
     }
 }
 
 /// The whole stage: replay, penetration queries, stability tests, verdict. The gripper
 /// rests out of reach for the first 45 and the last 200 frames: `default` skips those
 /// spans, `every_step` steps them.
-#[divan::bench(sample_count = 20, args = ["default", "every_step"])]
+#[divan::bench(sample_count = 20, args = ["default", "every_step", "ensemble"])]
 fn validate_700_frames(bencher: divan::Bencher, mode: &str) {
     let input = input();
     let barriers = vec!["beam".to_string()];
@@ -208,12 +210,13 @@ fn validate_700_frames(bencher: divan::Bencher, mode: &str) {
     let report = run();
     assert!(report.passed(), "{:?}", report.reasons);
     eprintln!(
-        "validate_700_frames ({mode}): {} steps, {} skipped; replay {:.3} s, penetration {:.3} s, stability {:.3} s (one run)",
+        "validate_700_frames ({mode}): {} steps, {} skipped; replay {:.3} s, penetration {:.3} s, stability {:.3} s, ensemble members {:.3} s (one run)",
         report.replay.steps,
         report.replay.skipped_steps,
         report.timing_s.replay,
         report.timing_s.penetration,
-        report.timing_s.stability
+        report.timing_s.stability,
+        report.timing_s.ensemble
     );
     bencher.bench_local(run);
 }
@@ -272,12 +275,13 @@ fn bench_committed(bencher: divan::Bencher, name: &str, label: &str, params: &Pa
 /// The decomposition is cached after the first run (in the process), as in a batch.
 #[divan::bench(sample_count = 5, args = ["teapot", "frying_pan", "apple", "small_box"])]
 fn validate_committed_demo(bencher: divan::Bencher, name: &str) {
-    bench_committed(bencher, name, "default", &Params::default());
+    bench_committed(bencher, name, "default", &Params::single_replay());
 }
 
 /// The contact-heavy case: the human hand pinching the teapot's handle (about 40 contact
-/// manifolds per step with the hand on it), with the defaults and with every step simulated.
-#[divan::bench(sample_count = 5, args = ["default", "every_step"])]
+/// manifolds per step with the hand on it), one replay with the defaults and with every step
+/// simulated, and the whole default ensemble.
+#[divan::bench(sample_count = 5, args = ["default", "every_step", "ensemble"])]
 fn teapot_contact_heavy(bencher: divan::Bencher, mode: &str) {
     bench_committed(bencher, "teapot", mode, &params(mode));
 }

@@ -6,7 +6,8 @@
 Runs `warp --config C --threshold-mm T` with each binary in turn, N times per config (all
 configs of scenes/configs by default), and prints per config the median physics time of
 each (the report's `physics.timing_s.total`, its replay part, steps simulated and skipped),
-the verdicts, and the mean over the configs with the ratio old / new.
+the verdicts, and the mean over the configs with the ratio old / new. Both binaries replay
+once (`--ensemble 1` where the binary has the ensemble verdict): the figures are per replay.
 """
 import argparse
 import json
@@ -19,10 +20,18 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
+def single_replay_flags(binary):
+    """`--ensemble 1` for a binary with the ensemble verdict (one replay, as older binaries
+    judge), nothing for one without it."""
+    text = subprocess.run([binary, "warp", "--help"], capture_output=True, text=True).stdout
+    return ["--ensemble", "1"] if "--ensemble" in text else []
+
+
 def run(binary, config, threshold):
     with tempfile.TemporaryDirectory() as out:
         subprocess.run(
-            [binary, "warp", "--config", str(config), "--threshold-mm", str(threshold), "--out", out],
+            [binary, "warp", "--config", str(config), "--threshold-mm", str(threshold), "--out", out,
+             *single_replay_flags(binary)],
             check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT,
         )
         report = json.loads((Path(out) / "report.json").read_text())

@@ -209,23 +209,32 @@ pub fn warp(
 
 /// Replays `demo` in physics and reports on it (`dexwarp validate`): the report as a dict.
 /// The scene is the demonstration's own unless `scene` is given; `barriers` (scene item
-/// names) default to the demonstration's.
+/// names) default to the demonstration's; `ensemble` (K replays, 1 for a single one) and
+/// `ensemble_seed` set the ensemble verdict.
 #[pyfunction]
-#[pyo3(signature = (demo, *, scene=None, barriers=None))]
+#[pyo3(signature = (demo, *, scene=None, barriers=None, ensemble=None, ensemble_seed=None))]
 pub fn validate<'py>(
     py: Python<'py>,
     demo: &Demo,
     scene: Option<PathBuf>,
     barriers: Option<Vec<String>>,
+    ensemble: Option<usize>,
+    ensemble_seed: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let demo = demo.inner.clone();
+    let params = PhysicsOptions {
+        ensemble,
+        ensemble_seed,
+        ..PhysicsOptions::default()
+    }
+    .apply(dexwarp::physics::Params::default());
     let (report, _) = py
         .detach(|| {
             pipeline::validate_demo(
                 demo,
                 scene.as_deref(),
                 barriers.as_deref(),
-                &dexwarp::physics::Params::default(),
+                &params,
                 &Limits::default(),
             )
         })

@@ -157,6 +157,25 @@ def test_validate_matches_the_command_line(cli, warped, tmp_path):
     assert report["physics"]["verdict"] == warped.report["physics"]["verdict"]
 
 
+def test_validate_takes_the_ensemble_of_the_command_line(cli, warped, tmp_path):
+    path = tmp_path / "w" / "out.demo.json"
+    warped.demo.save(path)
+    out = tmp_path / "v"
+    subprocess.run(
+        [cli, "validate", path, "--out", out, "--ensemble", "3", "--ensemble-seed", "5"],
+        check=True,
+        capture_output=True,
+    )
+    expected = json.loads((out / "report.json").read_text())
+    report = dexwarp.validate(dexwarp.Demo.load(path), ensemble=3, ensemble_seed=5)
+    assert_same(without_timing(report), without_timing(expected))
+    e = report["physics"]["ensemble"]
+    assert e["members"] == 3 and e["seed"] == 5, e
+    assert e["member"][0]["draw"]["friction_scale"] == 1.0
+    single = dexwarp.validate(dexwarp.Demo.load(path), ensemble=1)
+    assert single["physics"]["ensemble"] is None
+
+
 def cli_error(cli, *args):
     run = subprocess.run([cli, *args], capture_output=True, text=True)
     assert run.returncode != 0

@@ -509,16 +509,7 @@ fn gripper_case(variant: Variant, frames_out: Option<usize>) -> Case {
 }
 
 fn run(case: &Case) -> PhysicsReport {
-    let report = validate(
-        &case.robot,
-        &case.demo,
-        &case.scene,
-        &case.barriers,
-        &case.mesh,
-        &Params::single_replay(),
-        &Limits::default(),
-    )
-    .expect("validate");
+    let report = run_with(case, &Params::single_replay());
     println!(
         "{}: {} {:#?}\nmeasures: {}",
         case.demo.name,
