@@ -7,8 +7,9 @@
 For each sample of the `dexwarp augment` output folder RUN (kept/ and failed/, in id order,
 at most --limit), validates its output trajectory once as written and --repeats times with
 Gaussian noise of --sigma (m on every object and wrist position, rad on every joint), with
-the binary BIN and the ensemble options given (use those of the augment run), and counts
-the samples whose verdict under noise differs from the one augment wrote. The noisy files
+the binary BIN and the ensemble options given (those of the augment run, or others), and
+counts the samples whose verdict under noise differs from the one augment wrote, and from
+the one BIN gives the file as written. The noisy files
 keep the trajectory's name, so the ensemble draws are the same.
 """
 import argparse
@@ -59,7 +60,7 @@ def main():
         key=lambda d: d.name,
     )[: a.limit]
     rng = random.Random(1)
-    changed = 0
+    changed = changed_as_is = 0
     for d in samples:
         report = json.loads((d / "report.json").read_text())
         written = report["physics"]["verdict"]
@@ -76,6 +77,7 @@ def main():
                 path.unlink()
         flips = sum(v[0] != written for v in under)
         changed += flips > 0
+        changed_as_is += any(v[0] != as_is[0] for v in under)
         print(
             f"{d.name}: written {written}, as is {as_is[0]} ({as_is[1]}), under noise "
             + ", ".join(f"{v[0]} ({v[1]})" for v in under)
@@ -83,6 +85,10 @@ def main():
             flush=True,
         )
     print(f"decision changed under {a.sigma:g} noise on {changed} of {len(samples)} samples")
+    print(
+        f"against this binary's own decision on the file as written (other ensemble options "
+        f"than the run's): changed on {changed_as_is} of {len(samples)}"
+    )
 
 
 if __name__ == "__main__":

@@ -393,10 +393,15 @@ fn run_sample(
             if o.compare_baseline && baseline.is_none() {
                 continue;
             }
-            // A sample finished with another ensemble runs again too.
+            // A sample finished with another ensemble (members or seed) runs again too.
+            let ensemble =
+                crate::pipeline::physics_params_of(s.config.params.physics.as_ref(), &o.variations)
+                    .map(|p| o.physics.apply(p).ensemble)
+                    .ok();
             let lacks_margin = |r: &Report| {
                 r.physics.as_ref().is_some_and(|p| {
-                    (o.margin && p.margin().is_none()) || !same_ensemble(p, &o.physics)
+                    (o.margin && p.margin().is_none())
+                        || ensemble.as_ref().is_some_and(|e| !same_ensemble(p, e))
                 })
             };
             if lacks_margin(&report)
@@ -538,14 +543,15 @@ fn sample_options(o: &AugmentOptions, hand: HandMethod) -> Options {
         }))
 }
 
-/// Whether a finished sample's physics was judged by the ensemble `asked` names (members
-/// and seed; what the options leave open is the spec's, which a finished sample shares).
-fn same_ensemble(p: &crate::model::report::PhysicsSummary, asked: &PhysicsOptions) -> bool {
+/// Whether a finished sample's physics was judged by the ensemble a run now asks for
+/// (`want`: the spec's with the options on top): the same members and, with more than one,
+/// the same seed.
+fn same_ensemble(
+    p: &crate::model::report::PhysicsSummary,
+    want: &crate::physics::EnsembleParams,
+) -> bool {
     let (k, _) = p.ensemble_members();
-    asked.ensemble.is_none_or(|want| want == k)
-        && asked
-            .ensemble_seed
-            .is_none_or(|seed| k == 1 || p.ensemble_seed() == Some(seed))
+    k == want.members && (k == 1 || p.ensemble_seed() == Some(want.seed))
 }
 
 /// A report carrying the error of a hand run (`hand`), also written to `stage/file`.

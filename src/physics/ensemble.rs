@@ -1,5 +1,5 @@
 //! The ensemble verdict: a trajectory is kept on the fraction of perturbed replays it passes,
-//! not on one replay (docs/METHOD.md, "Physics validation: the ensemble verdict").
+//! not on one replay (docs/METHOD.md, "The ensemble verdict (stage 6b)").
 //!
 //! One replay's verdict is not a property of the trajectory: a grasp near the edge of
 //! holding is chaotic in Rapier (a micrometre of noise on the poses turned 8 of 20 teapot
@@ -9,11 +9,11 @@
 //! - **member 0** is the nominal replay, exactly the single replay of before: its report is
 //!   the one the physics section shows (tracking, drop, grip, ...) and its reasons explain a
 //!   failure;
-//! - **members 1..K** replay it under a seeded draw ([`Draw`]) of what a recording and a
+//! - **members 1..K−1** replay it under a seeded draw ([`Draw`]) of what a recording and a
 //!   simulator really get wrong: a constant offset of the hand relative to the object
-//!   (translation and rotation about the wrist), a slowly wandering jitter of the wrist
-//!   (the joints' too when asked), the object's start pose on its support (x, y, yaw), the hand-object friction,
-//!   the object's mass and the finger skin. The magnitudes are [`EnsembleParams`]' fields,
+//!   (translation and rotation about the wrist), a slowly wandering jitter of the wrist (the
+//!   joints' too when asked), the object's start pose on its support (x, y, yaw), the
+//!   hand-object friction, the object's mass and the finger skin. The magnitudes are [`EnsembleParams`]' fields,
 //!   and docs/METHOD.md says where each default comes from.
 //!
 //! What a member judges: everything the replay decides (divergence, drop, tracking,

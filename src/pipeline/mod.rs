@@ -26,7 +26,7 @@ use std::time::Instant;
 
 pub use barriers::shapes as barrier_shapes;
 pub use checks::check_hand_path;
-pub use params::{PhysicsOptions, StageParams, physics_params};
+pub use params::{PhysicsOptions, StageParams, physics_params, physics_params_of};
 pub use validate::{grasp_hold, validate, validate_demo};
 
 use crate::geometry::Mesh;

@@ -176,7 +176,15 @@ impl StageParams {
 
 /// The physics parameters of a config: the defaults with its `params.physics` block on top.
 pub fn physics_params(config: &WarpConfig) -> Result<physics::Params> {
-    let Some(block) = &config.params.physics else {
+    physics_params_of(config.params.physics.as_ref(), &config.source)
+}
+
+/// The defaults with a `params.physics` block on top; errors name `source` and the field.
+pub fn physics_params_of(
+    block: Option<&serde_json::Map<String, Value>>,
+    source: &std::path::Path,
+) -> Result<physics::Params> {
+    let Some(block) = block else {
         return Ok(physics::Params::default());
     };
     let field = field_of;
@@ -190,7 +198,7 @@ pub fn physics_params(config: &WarpConfig) -> Result<physics::Params> {
             let mut known: Vec<&String> = merged.keys().collect();
             known.sort();
             return Err(Error::invalid(
-                &config.source,
+                source,
                 field(key),
                 format!(
                     "is not a physics parameter; expected one of {}",
@@ -206,16 +214,16 @@ pub fn physics_params(config: &WarpConfig) -> Result<physics::Params> {
         let mut one = merged.clone();
         one.insert(key.clone(), value.clone());
         if let Err(e) = serde_json::from_value::<physics::Params>(Value::Object(one)) {
-            return Err(Error::invalid(&config.source, field(key), format!("{e}")));
+            return Err(Error::invalid(source, field(key), format!("{e}")));
         }
         merged.insert(key.clone(), value.clone());
     }
     let params: physics::Params = serde_json::from_value(Value::Object(merged))
-        .map_err(|e| Error::invalid(&config.source, "params.physics", format!("{e}")))?;
+        .map_err(|e| Error::invalid(source, "params.physics", format!("{e}")))?;
     // The replay's own check, its error moved onto the config's field.
     params.check().map_err(|e| match e {
         Error::Invalid { field, message, .. } => {
-            Error::invalid(&config.source, self::field_of(&field), message)
+            Error::invalid(source, self::field_of(&field), message)
         }
         other => other,
     })?;

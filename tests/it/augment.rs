@@ -416,6 +416,29 @@ fn augment_runs_end_to_end_reruns_identically_and_shards_agree() {
     assert!(said.contains("0 run now"), "{said}");
     assert_eq!(strip_timing(&one.join("stats.json")), before);
     assert_eq!(std::fs::read(one.join("samples.csv")).unwrap(), samples);
+    // The rows carry the ensemble; stats.json counts it.
+    let csv = String::from_utf8(samples.clone()).unwrap();
+    assert!(
+        csv.lines().next().unwrap().contains("pass_fraction"),
+        "{csv}"
+    );
+    let ensemble = &before["ensemble"];
+    assert_eq!(ensemble["samples"], stats["ran"], "{ensemble}");
+    // Another ensemble seed reruns every sample that ran; the same one again skips them.
+    let ran = stats["ran"].as_u64().unwrap();
+    let with_seed = |seed: &str| {
+        let mut a = base(&one);
+        a.extend(["--ensemble-seed".to_string(), seed.to_string()]);
+        a
+    };
+    let said = run(with_seed("2"));
+    assert!(said.contains(&format!("{ran} run now")), "{said}");
+    let said = run(with_seed("2"));
+    assert!(said.contains("0 run now"), "{said}");
+    // Back to the default seed: the first run's rows again.
+    let said = run(base(&one));
+    assert!(said.contains(&format!("{ran} run now")), "{said}");
+    assert_eq!(std::fs::read(one.join("samples.csv")).unwrap(), samples);
 
     // Two shards into one folder, merged, give the same kept set and figures.
     let shared = tmp.path().join("shared");
