@@ -7,8 +7,16 @@
 //! convex hull of the mesh triangles it covers. Shortcuts and fallbacks, in order:
 //! 1. a mesh whose volume is within 1 % of its convex hull's is already convex: the hull is
 //!    used as is (a box or a cube, no V-HACD slivers);
-//! 2. otherwise V-HACD; when it panics, returns no part, or the mesh is not closed, the
-//!    convex hull is used and [`ObjectShape::method`] says so.
+//! 2. otherwise V-HACD; when it panics or returns no part, the convex hull is used and
+//!    [`ObjectShape::method`] says so.
+//!
+//! A mesh that is not closed has no inside to decompose: it is first repaired
+//! ([`Mesh::repair`]: slivers, repeated triangles, small holes; [`ObjectShape::repair`] says
+//! what changed). One that stays open is refused ([`ShapeError::Open`], with its defects)
+//! unless [`DecompositionParams::hull_fallback`] asks for its convex hull, which is then
+//! simulated and reported with both volumes ([`ObjectShape::fallback_volumes_m3`]): a
+//! concave object's hull can hold several times its volume, and a finger inside the
+//! object's opening is then inside the simulated solid.
 //!
 //! Hand links with mesh collision geometry get convex parts by the same machinery
 //! ([`link_hulls`]), with a looser rule for step 1: a connected part of a link mesh is
@@ -44,6 +52,7 @@ use rapier3d_f64::parry::transformation::vhacd::{VHACD, VHACDParameters};
 use serde::{Deserialize, Serialize};
 
 use super::Mesh;
+use super::repair::{Defects, MAX_HOLE_EDGES, Repair};
 use crate::math::convert::to_point;
 
 /// How the object mesh is split into convex parts (V-HACD, parry's `VHACDParameters`).
@@ -59,6 +68,9 @@ pub struct DecompositionParams {
     pub concavity: f64,
     /// Most convex parts; default 24 (the contact work per step grows with it).
     pub max_parts: u32,
+    /// Simulate a mesh that stays open after [`Mesh::repair`] as its convex hull instead of
+    /// refusing it; default `false`.
+    pub hull_fallback: bool,
 }
 
 impl Default for DecompositionParams {
@@ -67,6 +79,7 @@ impl Default for DecompositionParams {
             resolution: 32,
             concavity: 0.02,
             max_parts: 24,
+            hull_fallback: false,
         }
     }
 }
@@ -79,9 +92,45 @@ pub enum ShapeMethod {
     ConvexMesh,
     /// V-HACD parts.
     Decomposition,
-    /// V-HACD failed or the mesh is open: one part, the convex hull (a concave object is
-    /// then simulated fuller than it is).
+    /// V-HACD failed, or the mesh is open and [`DecompositionParams::hull_fallback`] asked
+    /// for it: one part, the convex hull (a concave object is then simulated fuller than it
+    /// is).
     HullFallback,
+}
+
+/// Why an object mesh has no collision shape.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShapeError {
+    /// Fewer than four non-coplanar vertices.
+    Degenerate,
+    /// Not closed after [`Mesh::repair`], and the hull fallback was not asked for.
+    Open {
+        defects: Defects,
+        /// The volume of the mesh's convex hull and the mesh's own signed volume [m³].
+        hull_volume_m3: f64,
+        mesh_volume_m3: f64,
+    },
+}
+
+impl std::fmt::Display for ShapeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ShapeError::Degenerate => write!(
+                f,
+                "the mesh is degenerate (fewer than four non-coplanar vertices); expected a solid object"
+            ),
+            ShapeError::Open {
+                defects,
+                hull_volume_m3,
+                mesh_volume_m3,
+            } => write!(
+                f,
+                "the mesh is not closed ({defects}) and too damaged to repair (slivers, repeated triangles and holes of at most {MAX_HOLE_EDGES} edges are); expected a closed object mesh. Close it in a mesh tool, or set physics.decomposition.hull_fallback to simulate its convex hull ({:.1} cm³ against the mesh's {:.1} cm³)",
+                hull_volume_m3 * 1e6,
+                mesh_volume_m3.abs() * 1e6
+            ),
+        }
+    }
 }
 
 /// Convex parts of an object mesh, in the object frame.
@@ -97,6 +146,11 @@ pub struct ObjectShape {
     pub unit_mass: MassProperties,
     /// How the parts were obtained.
     pub method: ShapeMethod,
+    /// What [`Mesh::repair`] changed to close the mesh (`None` when it was closed).
+    pub repair: Option<Repair>,
+    /// With [`ShapeMethod::HullFallback`] of an open mesh: the hull's volume and the mesh's
+    /// [m³].
+    pub fallback_volumes_m3: Option<[f64; 2]>,
     /// Wall time of the decomposition when it was first computed [s]; a cache hit returns
     /// the same value (see [`object_shape`]'s flag).
     pub build_s: f64,
@@ -110,17 +164,63 @@ fn cache() -> &'static Cache {
 }
 
 /// The object's convex parts, from the cache or computed now; the flag is `true` on a cache
-/// hit. `None` when the mesh is degenerate (fewer than four non-coplanar vertices).
-pub fn object_shape(mesh: &Mesh, params: &DecompositionParams) -> Option<(Arc<ObjectShape>, bool)> {
+/// hit. An open mesh is repaired first; see the module docs for what is refused.
+pub fn object_shape(
+    mesh: &Mesh,
+    params: &DecompositionParams,
+) -> Result<(Arc<ObjectShape>, bool), ShapeError> {
     let key = content_key(mesh, params);
     if let Some(s) = cache().lock().ok().and_then(|c| c.get(&key).cloned()) {
-        return Some((s, true));
+        return Ok((s, true));
     }
-    let shape = Arc::new(build(mesh, params)?);
+    let (solid, repair) = solid_mesh(mesh);
+    let shape = if solid.is_closed_and_consistently_wound() {
+        let mut shape = build(&solid, params).ok_or(ShapeError::Degenerate)?;
+        shape.repair = repair;
+        shape
+    } else {
+        let hull = mesh.convex_hull().ok_or(ShapeError::Degenerate)?;
+        let hull_volume_m3 = hull.mass_properties(1.0).mass();
+        let mesh_volume_m3 = mesh.signed_volume().abs();
+        if !params.hull_fallback {
+            return Err(ShapeError::Open {
+                defects: mesh.defects(),
+                hull_volume_m3,
+                mesh_volume_m3,
+            });
+        }
+        let start = Instant::now();
+        let compound = SharedShape::compound(vec![(Pose::IDENTITY, hull.clone())]);
+        ObjectShape {
+            parts: vec![hull],
+            unit_mass: compound.mass_properties(1.0),
+            compound,
+            method: ShapeMethod::HullFallback,
+            repair,
+            fallback_volumes_m3: Some([hull_volume_m3, mesh_volume_m3]),
+            build_s: start.elapsed().as_secs_f64(),
+        }
+    };
+    let shape = Arc::new(shape);
     if let Ok(mut c) = cache().lock() {
         c.insert(key, shape.clone());
     }
-    Some((shape, false))
+    Ok((shape, false))
+}
+
+/// `mesh` closed by [`Mesh::repair`] when it is open (with what the repair did), or `mesh`
+/// itself when it is closed. A mesh the repair cannot close comes back unchanged.
+pub fn solid_mesh(mesh: &Mesh) -> (std::borrow::Cow<'_, Mesh>, Option<Repair>) {
+    if mesh.is_closed_and_consistently_wound() {
+        return (std::borrow::Cow::Borrowed(mesh), None);
+    }
+    let mut repaired = mesh.clone();
+    let repair = repaired.repair();
+    if repair.closed {
+        (std::borrow::Cow::Owned(repaired), Some(repair))
+    } else {
+        (std::borrow::Cow::Borrowed(mesh), Some(repair))
+    }
 }
 
 fn content_key(mesh: &Mesh, params: &DecompositionParams) -> u64 {
@@ -135,6 +235,7 @@ fn content_key(mesh: &Mesh, params: &DecompositionParams) -> u64 {
     params.resolution.hash(&mut h);
     params.concavity.to_bits().hash(&mut h);
     params.max_parts.hash(&mut h);
+    params.hull_fallback.hash(&mut h);
     h.finish()
 }
 
@@ -168,6 +269,8 @@ fn build(mesh: &Mesh, params: &DecompositionParams) -> Option<ObjectShape> {
         compound,
         unit_mass,
         method,
+        repair: None,
+        fallback_volumes_m3: None,
         build_s: start.elapsed().as_secs_f64(),
     })
 }
@@ -463,6 +566,66 @@ fn decompose(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A cone without its base: open, with a 30-edge rim (too large a hole to fill).
+    fn open_cone() -> Mesh {
+        let n = 30u32;
+        let mut vertices = vec![nalgebra::Point3::new(0.0, 0.0, 0.05)];
+        for k in 0..n {
+            let a = std::f64::consts::TAU * k as f64 / n as f64;
+            vertices.push(nalgebra::Point3::new(0.04 * a.cos(), 0.04 * a.sin(), 0.0));
+        }
+        let triangles = (0..n).map(|k| [0, 1 + k, 1 + (k + 1) % n]).collect();
+        Mesh {
+            vertices,
+            triangles,
+        }
+    }
+
+    #[test]
+    fn an_open_mesh_is_refused_unless_its_hull_is_asked_for() {
+        let params = DecompositionParams::default();
+        let err = object_shape(&open_cone(), &params).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            matches!(err, ShapeError::Open { ref defects, .. } if defects.boundary_edges == 30),
+            "{text}"
+        );
+        assert!(
+            text.contains("hull_fallback") && text.contains("cm³"),
+            "{text}"
+        );
+        let asked = DecompositionParams {
+            hull_fallback: true,
+            ..params
+        };
+        let (shape, _) = object_shape(&open_cone(), &asked).unwrap();
+        assert_eq!(shape.method, ShapeMethod::HullFallback);
+        let [hull, _] = shape.fallback_volumes_m3.unwrap();
+        // The cone's volume: π r² h / 3.
+        let cone = std::f64::consts::PI * 0.04f64.powi(2) * 0.05 / 3.0;
+        assert!((hull - cone).abs() < 0.02 * cone, "{hull} vs {cone}");
+        // Refused again without the flag: the cache keeps the two apart.
+        assert!(object_shape(&open_cone(), &params).is_err());
+    }
+
+    #[test]
+    fn a_mesh_with_a_sliver_is_repaired_and_decomposed_as_closed() {
+        let (v, t) = l_shape();
+        let mut mesh = Mesh {
+            vertices: v
+                .iter()
+                .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
+                .collect(),
+            triangles: t,
+        };
+        let [a, b, c] = mesh.triangles[0];
+        mesh.triangles.push([a, b, c]);
+        mesh.triangles.push([a, c, b]);
+        let (shape, _) = object_shape(&mesh, &DecompositionParams::default()).unwrap();
+        assert_ne!(shape.method, ShapeMethod::HullFallback);
+        assert_eq!(shape.repair.as_ref().map(|r| r.sliver_pairs), Some(1));
+    }
 
     /// An L-shaped prism (concave): two boxes sharing a face, as one closed mesh.
     fn l_shape() -> (Vec<Vector>, Vec<[u32; 3]>) {

@@ -5,10 +5,12 @@
 
 pub mod hull;
 pub mod mesh;
+pub mod repair;
 pub mod sdf;
 pub mod shape;
 pub mod sphere_tree;
 
 pub use mesh::Mesh;
+pub use repair::{Defects, Repair};
 pub use sdf::{ObjectSdf, SdfParams, object_sdf};
 pub use sphere_tree::SphereTree;

@@ -732,7 +732,9 @@ fn cache() -> &'static Cache {
 }
 
 /// The field of `mesh` with the default parameters, from the process cache (keyed by the
-/// mesh's content) or built now; `None` when the mesh has no triangles.
+/// mesh's content) or built now; `None` when the mesh has no triangles. An open mesh is
+/// repaired first ([`Mesh::repair`]), as the physics' collision shape is, so the IK keeps the
+/// fingers out of the same solid the replay simulates.
 pub fn object_sdf(mesh: &Mesh) -> Option<Arc<ObjectSdf>> {
     let params = SdfParams::default();
     let mut hasher = std::collections::hash_map::DefaultHasher::new();
@@ -754,7 +756,8 @@ pub fn object_sdf(mesh: &Mesh) -> Option<Arc<ObjectSdf>> {
     if let Some(s) = cache().lock().ok().and_then(|c| c.get(&key).cloned()) {
         return Some(s);
     }
-    let sdf = Arc::new(ObjectSdf::new(mesh.clone(), &params)?);
+    let (solid, _) = crate::geometry::hull::solid_mesh(mesh);
+    let sdf = Arc::new(ObjectSdf::new(solid.into_owned(), &params)?);
     if let Ok(mut c) = cache().lock() {
         c.insert(key, sdf.clone());
     }

@@ -29,6 +29,11 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
 
+pub mod keypoints;
+mod recorded;
+
+pub use recorded::{KeypointImport, KeypointOptions, import_keypoints};
+
 use crate::export::lerobot::{self, Column};
 use crate::geometry::Mesh;
 use crate::model::demo::{Frame, ObjectInfo};
@@ -324,6 +329,19 @@ fn finish(
     contacts: Option<Vec<Vec<Contact>>>,
     limits: &Limits,
 ) -> Result<Demo> {
+    finish_in(target, robot, fps, poses, contacts, None, limits)
+}
+
+/// [`finish`] with the scene the demonstration names.
+fn finish_in(
+    target: &Target,
+    robot: &Robot,
+    fps: f64,
+    poses: Vec<Pose>,
+    contacts: Option<Vec<Vec<Contact>>>,
+    scene: Option<PathBuf>,
+    limits: &Limits,
+) -> Result<Demo> {
     let mesh = Mesh::load(&target.mesh, Vector3::repeat(1.0), limits)?;
     let contacts = match contacts {
         Some(c) => c,
@@ -364,7 +382,7 @@ fn finish(
             })
             .collect(),
         timewarp: None,
-        scene: None,
+        scene: scene.as_deref().map(abs),
         barriers: Vec::new(),
         source: target.out.clone(),
     };

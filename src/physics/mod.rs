@@ -672,13 +672,8 @@ fn object_shapes(
     object_mesh: &Mesh,
     params: &Params,
 ) -> Result<(Arc<ObjectShape>, bool, Arc<crate::geometry::ObjectSdf>)> {
-    let (object, cached) = object_shape(object_mesh, &params.decomposition).ok_or_else(|| {
-        Error::invalid(
-            &demo.object.mesh,
-            "vertices",
-            "the mesh is degenerate (fewer than four non-coplanar vertices); expected a solid object",
-        )
-    })?;
+    let (object, cached) = object_shape(object_mesh, &params.decomposition)
+        .map_err(|e| Error::invalid(&demo.object.mesh, "(mesh)", e.to_string()))?;
     let sdf = crate::geometry::object_sdf(object_mesh).ok_or_else(|| {
         Error::invalid(
             &demo.object.mesh,
@@ -1009,6 +1004,8 @@ fn judge(
             contact_segment: segment.map(|s| [s.start, s.end]),
             object_parts: object.parts.len(),
             object_shape: Some(object.method),
+            mesh_repair: object.repair.as_ref().map(|r| r.to_string()),
+            hull_fallback_volumes_cm3: object.fallback_volumes_m3.map(|v| v.map(|x| x * 1e6)),
             decomposition_cached: cached,
             diverged_frame: trace.diverged_at,
             hand: params.hand,

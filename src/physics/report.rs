@@ -261,6 +261,13 @@ pub struct ReplayInfo {
     pub contact_segment: Option<[usize; 2]>,
     pub object_parts: usize,
     pub object_shape: Option<ShapeMethod>,
+    /// What the object mesh's repair changed to close it (`null` when it was closed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh_repair: Option<String>,
+    /// With `object_shape: hull_fallback` of an open mesh: the simulated hull's volume and
+    /// the mesh's own [cm³].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hull_fallback_volumes_cm3: Option<[f64; 2]>,
     /// The decomposition came from a cache (this process's or the one on disk).
     pub decomposition_cached: bool,
     /// First frame whose simulated object pose was not finite.

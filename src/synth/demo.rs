@@ -626,12 +626,8 @@ impl HoldTest {
     ) -> Result<HoldTest> {
         params.check()?;
         let (shape, _) =
-            crate::physics::object_shape(mesh, &params.decomposition).ok_or_else(|| {
-                Error::invalid(
-                    robot_path,
-                    "(object)",
-                    format!("object '{object}' has a degenerate mesh"),
-                )
+            crate::physics::object_shape(mesh, &params.decomposition).map_err(|e| {
+                Error::invalid(robot_path, "(object)", format!("object '{object}': {e}"))
             })?;
         Ok(HoldTest {
             object: shape,

@@ -18,6 +18,7 @@ mod paths;
 mod physics;
 mod physics_regression;
 mod player;
+mod recordings;
 mod sdf;
 mod structure;
 mod support;

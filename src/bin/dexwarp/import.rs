@@ -18,15 +18,32 @@ pub struct ImportArgs {
     #[arg(
         long,
         value_name = "FILE",
-        conflicts_with = "lerobot",
-        required_unless_present = "lerobot"
+        conflicts_with_all = ["lerobot", "keypoints"],
+        required_unless_present_any = ["lerobot", "keypoints"]
     )]
     csv: Option<PathBuf>,
+    /// A recorded human hand: per frame the object pose and 21 hand keypoints (see
+    /// docs/FORMATS.md); retargeted onto --robot, kept out of the object and the table.
+    #[arg(long, value_name = "FILE", conflicts_with = "lerobot")]
+    keypoints: Option<PathBuf>,
+    /// The recorded hand with --keypoints; a left hand is mirrored onto the (right) robot hand.
+    #[arg(long, value_enum, requires = "keypoints", default_value = "right")]
+    handedness: dexwarp::import::keypoints::Handedness,
+    /// Where the keypoints sit on --robot (JSON, docs/FORMATS.md); default the built-in
+    /// human hand's.
+    #[arg(long, value_name = "FILE", requires = "keypoints")]
+    keypoint_map: Option<PathBuf>,
+    /// A scene for the demonstration instead of the table inferred from the recording.
+    #[arg(long, value_name = "FILE", requires = "keypoints")]
+    scene: Option<PathBuf>,
+    /// Use the convex hull of an object mesh that is open and cannot be repaired.
+    #[arg(long)]
+    hull_fallback: bool,
     /// Contacts CSV for --csv (frame, link, hand_x..z, object_x..z).
     #[arg(long, value_name = "FILE", requires = "csv")]
     contacts: Option<PathBuf>,
     /// Frame rate of the CSV [Hz].
-    #[arg(long, value_name = "HZ", requires = "csv")]
+    #[arg(long, value_name = "HZ")]
     fps: Option<f64>,
     /// A LeRobot v3 dataset folder.
     #[arg(long, value_name = "DIR")]
@@ -64,6 +81,11 @@ pub struct ImportArgs {
 pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
     let ImportArgs {
         csv,
+        keypoints,
+        handedness,
+        keypoint_map,
+        scene,
+        hull_fallback,
         contacts,
         fps,
         lerobot,
@@ -84,6 +106,30 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         object_name: None,
         out: out.clone(),
     };
+    if let Some(frames) = keypoints {
+        let Some(fps) = fps else {
+            anyhow::bail!(
+                "--fps is required with --keypoints: the frame rate of the recording [Hz]"
+            );
+        };
+        let options = dexwarp::import::KeypointOptions {
+            fps,
+            handedness,
+            keypoint_map,
+            hull_fallback,
+            scene,
+            params: Default::default(),
+        };
+        let (import, hull) =
+            dexwarp::import::import_keypoints(&frames, &options, &target, &limits)?;
+        report_keypoints(&out, &import, hull);
+        return Ok(());
+    }
+    if hull_fallback {
+        anyhow::bail!(
+            "--hull-fallback applies to --keypoints imports; for others set physics.decomposition.hull_fallback in the config"
+        );
+    }
     let demo = match (csv, lerobot) {
         (Some(csv), _) => {
             let Some(fps) = fps else {
@@ -115,4 +161,47 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         demo.fps
     );
     Ok(())
+}
+
+/// The summary of a keypoint import on stderr.
+fn report_keypoints(
+    out: &std::path::Path,
+    import: &dexwarp::import::KeypointImport,
+    hull: Option<[f64; 2]>,
+) {
+    let demo = &import.demo;
+    if let Some(r) = &import.mesh_repair {
+        eprintln!(
+            "object mesh repaired: {r}; written to {}",
+            import.mesh.display()
+        );
+    }
+    if let Some([h, m]) = hull {
+        eprintln!(
+            "object mesh replaced by its convex hull ({h:.1} cm³ against the mesh's {m:.1} cm³), written to {}",
+            import.mesh.display()
+        );
+    }
+    if import.mirrored {
+        eprintln!("the left hand was mirrored onto the right robot hand (object mirrored too)");
+    }
+    if let Some(z) = import.table_top_z_m {
+        eprintln!("table inferred at z = {z:.3} m: {}", import.scene.display());
+    }
+    for w in &import.warnings {
+        eprintln!("warning: {w}");
+    }
+    eprintln!(
+        "wrote {}: {} frames at {} Hz; the recorded hand touches on frames {}; keypoint residual {:.1} mm mean, {:.1} mm largest; deepest in the object {:.2} mm; {:.1} s",
+        out.display(),
+        demo.frames.len(),
+        demo.fps,
+        import
+            .touch_frames
+            .map_or("none".into(), |[a, b]| format!("{a}-{b}")),
+        import.residual_mean_mm,
+        import.residual_max_mm,
+        import.max_penetration_mm,
+        import.time_s
+    );
 }

@@ -95,6 +95,20 @@ pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
             o.position_error_mm, o.rotation_error_deg, o.frame
         );
     }
+    let replay = physics
+        .and_then(|p| p.measures.get("replay"))
+        .and_then(|r| serde_json::from_value::<dexwarp::physics::ReplayInfo>(r.clone()).ok());
+    if let Some(replay) = replay {
+        if let Some(r) = &replay.mesh_repair {
+            eprintln!("{}: its object mesh was repaired: {r}", demo.display());
+        }
+        if let Some([hull, mesh]) = replay.hull_fallback_volumes_cm3 {
+            eprintln!(
+                "{}: its object mesh is open, simulated as its convex hull: {hull:.1} cm³ against the mesh's {mesh:.1} cm³",
+                demo.display()
+            );
+        }
+    }
     eprintln!("{}", verdict_line(&report));
     if strict && physics.is_some_and(|p| p.verdict != "pass") {
         std::process::exit(3);

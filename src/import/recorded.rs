@@ -1,0 +1,393 @@
+//! `dexwarp import --keypoints`: a recorded human hand onto a robot hand, with the object's
+//! mesh made solid and the table it rests on written as the demonstration's scene.
+//!
+//! Beside `DIR/NAME.demo.json` it writes `NAME.scene.json` (a support item `table`, see
+//! [`infer_table`]), `NAME.object.obj` when the mesh had to be repaired or mirrored (the
+//! demonstration names it instead of the input), and `NAME.import.json`: what the import
+//! did and, per frame, what the cleaning cost ([`super::keypoints::Residuals`]) and how deep
+//! the cleaned hand is in the object.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use nalgebra::{Isometry3, Vector3};
+use serde::Serialize;
+
+use super::keypoints::{self, Handedness, KeypointMap, Recording};
+use super::{Target, check_mass, finish_in};
+use crate::geometry::{Mesh, Repair};
+use crate::model::Demo;
+use crate::model::scene::{
+    Role, SCENE_FORMAT, Scene, SceneFile, SceneItemJson, ScenePoseJson, ShapeJson,
+};
+use crate::robot::Robot;
+use crate::synth::proximity::ObjectGeometry;
+use crate::{Error, Limits, Result};
+
+/// Options of [`import_keypoints`].
+#[derive(Clone, Debug)]
+pub struct KeypointOptions {
+    /// Frame rate of the recording [Hz].
+    pub fps: f64,
+    /// The recorded hand; a left hand is mirrored onto the (right) robot hand.
+    pub handedness: Handedness,
+    /// A keypoint map (JSON, [`KeypointMap`]); default the built-in human hand's.
+    pub keypoint_map: Option<PathBuf>,
+    /// Simulate an object mesh that cannot be repaired as its convex hull.
+    pub hull_fallback: bool,
+    /// A scene to name instead of the inferred table.
+    pub scene: Option<PathBuf>,
+    pub params: keypoints::Params,
+}
+
+/// What [`import_keypoints`] did.
+#[derive(Clone, Debug, Serialize)]
+pub struct KeypointImport {
+    #[serde(skip)]
+    pub demo: Demo,
+    pub recording: PathBuf,
+    pub handedness: Handedness,
+    /// The recording was mirrored (left hand onto a right robot hand).
+    pub mirrored: bool,
+    /// What the repair of the object mesh changed (`None`: it was closed).
+    pub mesh_repair: Option<Repair>,
+    /// The object mesh the demonstration names.
+    pub mesh: PathBuf,
+    /// The scene the demonstration names, and the table's top height when inferred [m].
+    pub scene: PathBuf,
+    pub table_top_z_m: Option<f64>,
+    /// First and last frame where the recorded hand touches the object.
+    pub touch_frames: Option<[usize; 2]>,
+    /// Warnings about the recording (object moving before the hand touches it, ...).
+    pub warnings: Vec<String>,
+    /// Keypoint residuals of the cleaned hand [mm], mean and largest over frames.
+    pub residual_mean_mm: f64,
+    pub residual_max_mm: f64,
+    /// Deepest the cleaned hand is in the object over all frames [mm].
+    pub max_penetration_mm: f64,
+    /// Wall time of the import [s].
+    pub time_s: f64,
+    /// Per frame: keypoint residuals and the cleaned hand's depth in the object.
+    pub per_frame: PerFrame,
+}
+
+/// Per-frame figures of the import.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct PerFrame {
+    pub residual_mean_mm: Vec<f64>,
+    pub residual_max_mm: Vec<f64>,
+    pub residual_worst_keypoint: Vec<String>,
+    pub penetration_mm: Vec<f64>,
+}
+
+/// The file `NAME.SUFFIX` beside the demonstration `out` (`DIR/NAME.demo.json`).
+fn beside(out: &Path, suffix: &str) -> PathBuf {
+    let name = out
+        .file_name()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let stem = name
+        .strip_suffix(".demo.json")
+        .or_else(|| name.strip_suffix(".json"))
+        .unwrap_or(&name)
+        .to_string();
+    out.with_file_name(format!("{stem}.{suffix}"))
+}
+
+/// The height of the support under the object: its lowest point at the first frame, where
+/// the recording has it at rest. World z must be up: no frame may put the object's lowest
+/// point more than 2 cm below that (it would go through the support), and the wrist must be
+/// above it at the first frame.
+pub fn infer_table(path: &Path, rec: &Recording, mesh: &Mesh) -> Result<f64> {
+    let lowest = |pose: &Isometry3<f64>| {
+        mesh.vertices
+            .iter()
+            .map(|v| (pose * v).z)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let top = lowest(&rec.object[0]);
+    if let Some(t) = (0..rec.len()).find(|&t| lowest(&rec.object[t]) < top - 0.02) {
+        return Err(Error::invalid(
+            path,
+            format!("row {}, obj_x..obj_qz", t + 1),
+            format!(
+                "puts the object's lowest point at z = {:.3} m, below where it rests at the first frame ({top:.3} m); expected world z up and the object starting on its support; give a scene with --scene",
+                lowest(&rec.object[t])
+            ),
+        ));
+    }
+    if rec.keypoints[0][0].z < top {
+        return Err(Error::invalid(
+            path,
+            "row 1, wrist_z",
+            format!(
+                "puts the wrist below the support inferred at z = {top:.3} m; expected world z up"
+            ),
+        ));
+    }
+    Ok(top)
+}
+
+/// The inferred scene: a table 0.8 m across and 4 cm thick whose top is at `top`, centred
+/// under the object's first position.
+fn table_scene(name: &str, rec: &Recording, top: f64) -> SceneFile {
+    let c = rec.object[0].translation.vector;
+    SceneFile {
+        format: SCENE_FORMAT.into(),
+        name: format!("{name} (inferred from the recording)"),
+        items: vec![SceneItemJson {
+            name: "table".into(),
+            role: Role::Support,
+            pose: ScenePoseJson {
+                position: [c.x, c.y, top - 0.02],
+                orientation: [1.0, 0.0, 0.0, 0.0],
+            },
+            shape: ShapeJson::Box {
+                size: [0.8, 0.8, 0.04],
+            },
+        }],
+    }
+}
+
+/// Frames where the object has moved more than 5 mm from its first pose before the first
+/// frame the hand touches it.
+fn moved_before_touch(rec: &Recording, touch: Option<[usize; 2]>) -> Option<[usize; 2]> {
+    let first = touch.map_or(rec.len(), |t| t[0]);
+    let start = rec.object[0].translation.vector;
+    let moved: Vec<usize> = (0..first)
+        .filter(|&t| (rec.object[t].translation.vector - start).norm() > 0.005)
+        .collect();
+    Some([*moved.first()?, *moved.last()?])
+}
+
+/// The object mesh made solid: repaired when open, refused when that cannot close it (or
+/// replaced by its hull with `hull_fallback`); returns the mesh, the repair, and the hull's
+/// and mesh's volumes when the hull stands in.
+fn solid_object(
+    path: &Path,
+    mut mesh: Mesh,
+    hull_fallback: bool,
+) -> Result<(Mesh, Option<Repair>, Option<[f64; 2]>)> {
+    if mesh.is_closed_and_consistently_wound() {
+        mesh.orient_outward();
+        return Ok((mesh, None, None));
+    }
+    let before = mesh.clone();
+    let repair = mesh.repair();
+    if repair.closed {
+        return Ok((mesh, Some(repair), None));
+    }
+    let hull = before.convex_hull().ok_or_else(|| {
+        Error::invalid(
+            path,
+            "vertices",
+            "the mesh is degenerate; expected a solid object",
+        )
+    })?;
+    let hull_volume = hull.mass_properties(1.0).mass();
+    let mesh_volume = before.signed_volume().abs();
+    if !hull_fallback {
+        return Err(Error::invalid(
+            path,
+            "(mesh)",
+            format!(
+                "is not closed ({}) and too damaged to repair; expected a closed object mesh. Close it in a mesh tool, or pass --hull-fallback to use its convex hull ({:.1} cm³ against the mesh's {:.1} cm³)",
+                before.defects(),
+                hull_volume * 1e6,
+                mesh_volume * 1e6
+            ),
+        ));
+    }
+    let points: Vec<_> = before
+        .vertices
+        .iter()
+        .map(crate::math::convert::to_point)
+        .collect();
+    let (v, t) = rapier3d_f64::parry::transformation::try_convex_hull(&points)
+        .map_err(|e| Error::invalid(path, "vertices", format!("no convex hull: {e:?}")))?;
+    let mut hull_mesh = Mesh {
+        vertices: v
+            .iter()
+            .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
+            .collect(),
+        triangles: t,
+    };
+    hull_mesh.orient_outward();
+    Ok((
+        hull_mesh,
+        Some(repair),
+        Some([hull_volume * 1e6, mesh_volume * 1e6]),
+    ))
+}
+
+/// `dexwarp import --keypoints` (see the module docs and [`keypoints`]).
+pub fn import_keypoints(
+    frames: &Path,
+    options: &KeypointOptions,
+    target: &Target,
+    limits: &Limits,
+) -> Result<(KeypointImport, Option<[f64; 2]>)> {
+    let clock = Instant::now();
+    crate::model::json::FieldCheck::new(frames).in_range(
+        || "--fps".into(),
+        options.fps,
+        crate::limits::FPS_RANGE_HZ,
+        "frames per second",
+    )?;
+    check_mass(target)?;
+    let robot = Robot::from_urdf_file(&target.robot, limits)?;
+    let map = match &options.keypoint_map {
+        Some(p) => crate::model::json::read_json::<KeypointMap>(p, limits)?,
+        None => KeypointMap::human_hand(),
+    };
+    let mut rec = keypoints::read_keypoints_csv(frames, limits)?;
+    let mesh = Mesh::load(&target.mesh, Vector3::repeat(1.0), limits)?;
+    let (mut mesh, mesh_repair, hull_volumes) =
+        solid_object(&target.mesh, mesh, options.hull_fallback)?;
+    let mirrored = options.handedness == Handedness::Left;
+    if mirrored {
+        rec.mirror(rec.object[0].translation.x);
+        mesh = keypoints::mirror_mesh(&mesh);
+    }
+    let out = &target.out;
+    if let Some(dir) = out.parent()
+        && !dir.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
+    }
+    let mesh_path = if mirrored || mesh_repair.is_some() {
+        let p = beside(out, "object.obj");
+        crate::model::json::write_atomic(&p, mesh.to_obj_string().as_bytes())?;
+        // What every later command reads back.
+        mesh = Mesh::load(&p, Vector3::repeat(1.0), limits)?;
+        p
+    } else {
+        target.mesh.clone()
+    };
+    let name = target.name.clone().unwrap_or_else(|| {
+        beside(out, "x")
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "recording".into())
+    });
+    let (scene_path, table_top) = match &options.scene {
+        Some(s) => (s.clone(), None),
+        None => {
+            let top = infer_table(frames, &rec, &mesh)?;
+            let p = beside(out, "scene.json");
+            crate::model::json::write_json_atomic(&p, &table_scene(&name, &rec, top))?;
+            (p, Some(top))
+        }
+    };
+    let scene = Scene::load(&scene_path, limits)?;
+    let supports: Vec<_> = scene
+        .items
+        .iter()
+        .filter(|i| i.role == Role::Support)
+        .map(|i| scene.collision_shape(i, limits))
+        .collect::<Result<_>>()?;
+    let geometry = ObjectGeometry::new(mesh.clone())
+        .ok_or_else(|| Error::invalid(&mesh_path, "(mesh)", "has no triangles"))?;
+    let ik = crate::hand::ik::Params {
+        threshold_mm: 0.5,
+        margin_m: options.params.support_margin_m,
+        ..crate::hand::ik::Params::default()
+    };
+    let hand = keypoints::retarget(
+        &robot,
+        &target.robot,
+        &map,
+        &rec,
+        &geometry,
+        &supports,
+        &ik,
+        &options.params,
+    )?;
+    let mut poses = robot.new_link_poses();
+    let penetration_mm: Vec<f64> = (0..rec.len())
+        .map(|t| {
+            robot.forward_kinematics(&hand.wrists[t], &hand.joints[t], &mut poses);
+            crate::synth::proximity::penetration(&robot, &poses, &geometry, &rec.object[t]).depth_m
+                * 1e3
+        })
+        .collect();
+    let mut warnings = Vec::new();
+    if let Some([a, b]) = moved_before_touch(&rec, hand.touch) {
+        warnings.push(format!(
+            "the object moves more than 5 mm from its first pose on frames {a}-{b}, before the recorded hand touches it (first touch: {}); the replay cannot reproduce that",
+            hand.touch.map_or("never".into(), |t| format!("frame {}", t[0]))
+        ));
+    }
+    if hand.touch.is_none() {
+        warnings.push(
+            "the recorded hand never touches the object: the demonstration has no contact segment"
+                .into(),
+        );
+    }
+    let poses: Vec<super::Pose> = rec
+        .object
+        .iter()
+        .zip(hand.wrists.iter().zip(&hand.joints))
+        .map(|(o, (w, q))| (*o, *w, q.clone()))
+        .collect();
+    let target = Target {
+        mesh: mesh_path.clone(),
+        object_name: Some(match (&target.object_name, mirrored) {
+            (Some(n), _) => n.clone(),
+            (None, m) => {
+                let stem = target
+                    .mesh
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().to_string())
+                    .unwrap_or_else(|| "object".into());
+                if m {
+                    format!("{stem} (mirrored)")
+                } else {
+                    stem
+                }
+            }
+        }),
+        name: Some(name),
+        ..target.clone()
+    };
+    let demo = finish_in(
+        &target,
+        &robot,
+        options.fps,
+        poses,
+        Some(hand.contacts.clone()),
+        Some(scene_path.clone()),
+        limits,
+    )?;
+    let r = &hand.residuals;
+    let import = KeypointImport {
+        demo,
+        recording: frames.to_path_buf(),
+        handedness: options.handedness,
+        mirrored,
+        mesh_repair,
+        mesh: mesh_path,
+        scene: scene_path,
+        table_top_z_m: table_top,
+        touch_frames: hand.touch,
+        warnings,
+        residual_mean_mm: r.mean_mm.iter().sum::<f64>() / r.mean_mm.len().max(1) as f64,
+        residual_max_mm: r.max_mm.iter().copied().fold(0.0, f64::max),
+        max_penetration_mm: penetration_mm.iter().copied().fold(0.0, f64::max),
+        time_s: clock.elapsed().as_secs_f64(),
+        per_frame: PerFrame {
+            residual_mean_mm: r.mean_mm.clone(),
+            residual_max_mm: r.max_mm.clone(),
+            residual_worst_keypoint: r.worst.clone(),
+            penetration_mm,
+        },
+    };
+    crate::model::json::write_json_atomic(
+        &beside(out, "import.json"),
+        &serde_json::json!({
+            "format": "dexwarp.import/1",
+            "import": &import,
+        }),
+    )?;
+    Ok((import, hull_volumes))
+}

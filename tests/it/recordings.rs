@@ -1,0 +1,119 @@
+//! A real recording in: the shared TACO take (optical motion capture, a left hand lifting an
+//! object; CC BY 4.0, see `../shared/recordings/README.md`) imported onto the built-in
+//! human hand. Outside CI a missing `../shared/recordings` is said in one line and the test
+//! is skipped; under CI (`CI` set) it fails.
+
+use std::path::PathBuf;
+
+use crate::fixtures::{dexwarp, repo, stderr};
+
+/// The shared take's folder, or `None` with a message (a failure under CI).
+fn take() -> Option<PathBuf> {
+    let dir = std::env::var_os("DEXWARP_RECORDINGS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo("../shared/recordings"))
+        .join("taco_20231104_017");
+    if dir.join("frames.csv").is_file() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "no recording at {} (CI must have ../shared/recordings)",
+        dir.display()
+    );
+    eprintln!(
+        "skipped: no recording at {} (set DEXWARP_RECORDINGS)",
+        dir.display()
+    );
+    None
+}
+
+fn json(p: &std::path::Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+}
+
+#[test]
+fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_the_hand_out_of_the_object()
+ {
+    let Some(take) = take() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    // The first 60 frames: the approach, the grasp and the start of the lift.
+    let text = std::fs::read_to_string(take.join("frames.csv")).unwrap();
+    let head: Vec<&str> = text.lines().take(61).collect();
+    let frames = tmp.path().join("frames.csv");
+    std::fs::write(&frames, head.join("\n") + "\n").unwrap();
+    let out = tmp.path().join("out/taco.demo.json");
+    let o = dexwarp(&[
+        "import",
+        "--keypoints",
+        frames.to_str().unwrap(),
+        "--fps",
+        "30",
+        "--handedness",
+        "left",
+        "--robot",
+        repo("robots/human_hand.urdf").to_str().unwrap(),
+        "--mesh",
+        take.join("object.obj").to_str().unwrap(),
+        "--mass",
+        "0.2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    // The open mesh as shipped: three zero-volume slivers, removed and said.
+    assert!(
+        err.contains("object mesh repaired: removed 3 zero-volume slivers"),
+        "{err}"
+    );
+    assert!(err.contains("mirrored"), "{err}");
+    let demo = json(&out);
+    assert_eq!(demo["scene"], "taco.scene.json");
+    assert_eq!(demo["object"]["mesh"], "taco.object.obj");
+    assert!(
+        demo["object"]["name"]
+            .as_str()
+            .unwrap()
+            .ends_with("(mirrored)"),
+        "{}",
+        demo["object"]["name"]
+    );
+    assert_eq!(demo["frames"].as_array().unwrap().len(), 60);
+    // The table: its top where the object rests (about 0.55 m, see the take's README).
+    let scene = json(&out.with_file_name("taco.scene.json"));
+    let table = &scene["items"][0];
+    assert_eq!(table["name"], "table");
+    assert_eq!(table["role"], "support");
+    let top = table["pose"]["position"][2].as_f64().unwrap() + 0.02;
+    assert!((top - 0.55).abs() < 0.01, "table top at {top}");
+    // The recording touches from about frame 18 (its README); the cleaned hand is out of
+    // the object (at most 2 mm deep) on every frame.
+    let import = &json(&out.with_file_name("taco.import.json"))["import"];
+    let first = import["touch_frames"][0].as_u64().unwrap();
+    assert!((15..=21).contains(&first), "first touch at {first}");
+    let depth = import["per_frame"]["penetration_mm"].as_array().unwrap();
+    assert_eq!(depth.len(), 60);
+    let deepest = depth
+        .iter()
+        .map(|d| d.as_f64().unwrap())
+        .fold(0.0, f64::max);
+    assert!(
+        deepest <= 2.0,
+        "the cleaned hand is {deepest} mm in the object"
+    );
+    // The repaired mesh is closed: validate replays it as its decomposition, not its hull,
+    // and finds the scene from the demonstration.
+    let val = tmp.path().join("val");
+    let o = dexwarp(&[
+        "validate",
+        out.to_str().unwrap(),
+        "--out",
+        val.to_str().unwrap(),
+        "--ensemble",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = json(&val.join("report.json"));
+    assert_eq!(report["physics"]["replay"]["object_shape"], "decomposition");
+}
