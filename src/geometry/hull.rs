@@ -151,6 +151,10 @@ pub struct ObjectShape {
     /// With [`ShapeMethod::HullFallback`] of an open mesh: the hull's volume and the mesh's
     /// [m³].
     pub fallback_volumes_m3: Option<[f64; 2]>,
+    /// The parts' volume over the closed mesh's (1 for a convex mesh; V-HACD fills thin
+    /// walls and hollows, so a shell reads several times its volume: a hand resting on the
+    /// mesh's surface there is inside the simulated object). `None` for an open mesh.
+    pub volume_ratio: Option<f64>,
     /// Wall time of the decomposition when it was first computed [s]; a cache hit returns
     /// the same value (see [`object_shape`]'s flag).
     pub build_s: f64,
@@ -177,6 +181,8 @@ pub fn object_shape(
     let shape = if solid.is_closed_and_consistently_wound() {
         let mut shape = build(&solid, params).ok_or(ShapeError::Degenerate)?;
         shape.repair = repair;
+        let volume = solid.signed_volume().abs();
+        shape.volume_ratio = (volume > 0.0).then(|| shape.unit_mass.mass() / volume);
         shape
     } else {
         let hull = mesh.convex_hull().ok_or(ShapeError::Degenerate)?;
@@ -198,6 +204,7 @@ pub fn object_shape(
             method: ShapeMethod::HullFallback,
             repair,
             fallback_volumes_m3: Some([hull_volume_m3, mesh_volume_m3]),
+            volume_ratio: None,
             build_s: start.elapsed().as_secs_f64(),
         }
     };
@@ -207,6 +214,10 @@ pub fn object_shape(
     }
     Ok((shape, false))
 }
+
+/// Above this [`ObjectShape::volume_ratio`], commands warn that the simulated object is
+/// fuller than its mesh.
+pub const FULLER_THAN_MESH: f64 = 1.25;
 
 /// `mesh` closed by [`Mesh::repair`] when it is open (with what the repair did), or `mesh`
 /// itself when it is closed. A mesh the repair cannot close comes back unchanged.
@@ -271,6 +282,7 @@ fn build(mesh: &Mesh, params: &DecompositionParams) -> Option<ObjectShape> {
         method,
         repair: None,
         fallback_volumes_m3: None,
+        volume_ratio: None,
         build_s: start.elapsed().as_secs_f64(),
     })
 }

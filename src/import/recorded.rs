@@ -60,6 +60,9 @@ pub struct KeypointImport {
     pub touch_frames: Option<[usize; 2]>,
     /// Warnings about the recording (object moving before the hand touches it, ...).
     pub warnings: Vec<String>,
+    /// The simulated object's volume over its mesh's (see
+    /// [`crate::geometry::hull::ObjectShape::volume_ratio`]).
+    pub object_volume_ratio: Option<f64>,
     /// Keypoint residuals of the cleaned hand [mm], mean and largest over frames.
     pub residual_mean_mm: f64,
     pub residual_max_mm: f64,
@@ -312,6 +315,14 @@ pub fn import_keypoints(
         })
         .collect();
     let mut warnings = Vec::new();
+    let volume_ratio = crate::geometry::hull::object_shape(&mesh, &Default::default())
+        .ok()
+        .and_then(|(s, _)| s.volume_ratio);
+    if let Some(r) = volume_ratio.filter(|r| *r > crate::geometry::hull::FULLER_THAN_MESH) {
+        warnings.push(format!(
+            "the object's convex parts (what physics simulates) hold {r:.2}x its mesh's volume: thin walls or hollows are filled, so fingers on the mesh's surface there are inside the simulated object and push it"
+        ));
+    }
     if let Some([a, b]) = moved_before_touch(&rec, hand.touch) {
         warnings.push(format!(
             "the object moves more than 5 mm from its first pose on frames {a}-{b}, before the recorded hand touches it (first touch: {}); the replay cannot reproduce that",
@@ -371,6 +382,7 @@ pub fn import_keypoints(
         table_top_z_m: table_top,
         touch_frames: hand.touch,
         warnings,
+        object_volume_ratio: volume_ratio,
         residual_mean_mm: r.mean_mm.iter().sum::<f64>() / r.mean_mm.len().max(1) as f64,
         residual_max_mm: r.max_mm.iter().copied().fold(0.0, f64::max),
         max_penetration_mm: penetration_mm.iter().copied().fold(0.0, f64::max),

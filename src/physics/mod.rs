@@ -1005,6 +1005,7 @@ fn judge(
             object_parts: object.parts.len(),
             object_shape: Some(object.method),
             mesh_repair: object.repair.as_ref().map(|r| r.to_string()),
+            object_volume_ratio: object.volume_ratio,
             hull_fallback_volumes_cm3: object.fallback_volumes_m3.map(|v| v.map(|x| x * 1e6)),
             decomposition_cached: cached,
             diverged_frame: trace.diverged_at,

@@ -264,6 +264,10 @@ pub struct ReplayInfo {
     /// What the object mesh's repair changed to close it (`null` when it was closed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh_repair: Option<String>,
+    /// The object's convex parts' volume over its mesh's (see
+    /// [`crate::geometry::hull::ObjectShape::volume_ratio`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object_volume_ratio: Option<f64>,
     /// With `object_shape: hull_fallback` of an open mesh: the simulated hull's volume and
     /// the mesh's own [cm³].
     #[serde(default, skip_serializing_if = "Option::is_none")]
