@@ -71,6 +71,23 @@ pub struct DecompositionParams {
     /// Simulate a mesh that stays open after [`Mesh::repair`] as its convex hull instead of
     /// refusing it; default `false`.
     pub hull_fallback: bool,
+    /// What the physics simulates: the convex parts (default) or the closed mesh itself.
+    pub collider: ObjectCollider,
+}
+
+/// The object's collision shape in the physics replay.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ObjectCollider {
+    /// Convex parts (V-HACD): robust contacts, but thin walls and hollows come out filled
+    /// ([`ObjectShape::volume_ratio`]).
+    #[default]
+    Parts,
+    /// The closed mesh as a Rapier triangle mesh: exactly the mesh the IK keeps the hand out
+    /// of, so a thin-walled shell (an open box, a pan, a bowl) is simulated as the shell it
+    /// is. Its mass properties are the closed mesh's. A triangle mesh has no inside: a finger
+    /// driven more than half a wall's thickness into it can pass through.
+    Mesh,
 }
 
 impl Default for DecompositionParams {
@@ -80,6 +97,7 @@ impl Default for DecompositionParams {
             concavity: 0.02,
             max_parts: 24,
             hull_fallback: false,
+            collider: ObjectCollider::Parts,
         }
     }
 }
@@ -92,6 +110,8 @@ pub enum ShapeMethod {
     ConvexMesh,
     /// V-HACD parts.
     Decomposition,
+    /// The closed mesh itself ([`ObjectCollider::Mesh`]).
+    Mesh,
     /// V-HACD failed, or the mesh is open and [`DecompositionParams::hull_fallback`] asked
     /// for it: one part, the convex hull (a concave object is then simulated fuller than it
     /// is).
@@ -178,41 +198,63 @@ pub fn object_shape(
         return Ok((s, true));
     }
     let (solid, repair) = solid_mesh(mesh);
-    let shape = if solid.is_closed_and_consistently_wound() {
-        let mut shape = build(&solid, params).ok_or(ShapeError::Degenerate)?;
-        shape.repair = repair;
-        let volume = solid.signed_volume().abs();
-        shape.volume_ratio = (volume > 0.0).then(|| shape.unit_mass.mass() / volume);
-        shape
-    } else {
-        let hull = mesh.convex_hull().ok_or(ShapeError::Degenerate)?;
-        let hull_volume_m3 = hull.mass_properties(1.0).mass();
-        let mesh_volume_m3 = mesh.signed_volume().abs();
-        if !params.hull_fallback {
-            return Err(ShapeError::Open {
-                defects: mesh.defects(),
-                hull_volume_m3,
-                mesh_volume_m3,
-            });
-        }
-        let start = Instant::now();
-        let compound = SharedShape::compound(vec![(Pose::IDENTITY, hull.clone())]);
-        ObjectShape {
-            parts: vec![hull],
-            unit_mass: compound.mass_properties(1.0),
-            compound,
-            method: ShapeMethod::HullFallback,
-            repair,
-            fallback_volumes_m3: Some([hull_volume_m3, mesh_volume_m3]),
-            volume_ratio: None,
-            build_s: start.elapsed().as_secs_f64(),
-        }
-    };
+    let shape =
+        if solid.is_closed_and_consistently_wound() && params.collider == ObjectCollider::Mesh {
+            mesh_collider(&solid, repair)?
+        } else if solid.is_closed_and_consistently_wound() {
+            let mut shape = build(&solid, params).ok_or(ShapeError::Degenerate)?;
+            shape.repair = repair;
+            let volume = solid.signed_volume().abs();
+            shape.volume_ratio = (volume > 0.0).then(|| shape.unit_mass.mass() / volume);
+            shape
+        } else {
+            let hull = mesh.convex_hull().ok_or(ShapeError::Degenerate)?;
+            let hull_volume_m3 = hull.mass_properties(1.0).mass();
+            let mesh_volume_m3 = mesh.signed_volume().abs();
+            if !params.hull_fallback {
+                return Err(ShapeError::Open {
+                    defects: mesh.defects(),
+                    hull_volume_m3,
+                    mesh_volume_m3,
+                });
+            }
+            let start = Instant::now();
+            let compound = SharedShape::compound(vec![(Pose::IDENTITY, hull.clone())]);
+            ObjectShape {
+                parts: vec![hull],
+                unit_mass: compound.mass_properties(1.0),
+                compound,
+                method: ShapeMethod::HullFallback,
+                repair,
+                fallback_volumes_m3: Some([hull_volume_m3, mesh_volume_m3]),
+                volume_ratio: None,
+                build_s: start.elapsed().as_secs_f64(),
+            }
+        };
     let shape = Arc::new(shape);
     if let Ok(mut c) = cache().lock() {
         c.insert(key, shape.clone());
     }
     Ok((shape, false))
+}
+
+/// The closed, outward-wound `mesh` as one triangle-mesh part ([`ObjectCollider::Mesh`]).
+fn mesh_collider(mesh: &Mesh, repair: Option<Repair>) -> Result<ObjectShape, ShapeError> {
+    let start = Instant::now();
+    let mut oriented = mesh.clone();
+    oriented.orient_outward();
+    let shape = SharedShape::new(oriented.to_trimesh(true).ok_or(ShapeError::Degenerate)?);
+    let unit_mass = shape.mass_properties(1.0);
+    Ok(ObjectShape {
+        parts: vec![shape.clone()],
+        compound: shape,
+        unit_mass,
+        method: ShapeMethod::Mesh,
+        repair,
+        fallback_volumes_m3: None,
+        volume_ratio: Some(1.0),
+        build_s: start.elapsed().as_secs_f64(),
+    })
 }
 
 /// Above this [`ObjectShape::volume_ratio`], commands warn that the simulated object is
@@ -247,6 +289,7 @@ fn content_key(mesh: &Mesh, params: &DecompositionParams) -> u64 {
     params.concavity.to_bits().hash(&mut h);
     params.max_parts.hash(&mut h);
     params.hull_fallback.hash(&mut h);
+    params.collider.hash(&mut h);
     h.finish()
 }
 
@@ -637,6 +680,33 @@ mod tests {
         let (shape, _) = object_shape(&mesh, &DecompositionParams::default()).unwrap();
         assert_ne!(shape.method, ShapeMethod::HullFallback);
         assert_eq!(shape.repair.as_ref().map(|r| r.sliver_pairs), Some(1));
+    }
+
+    #[test]
+    fn the_mesh_collider_is_the_closed_mesh_with_its_own_mass() {
+        let (v, t) = l_shape();
+        let mesh = Mesh {
+            vertices: v
+                .iter()
+                .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
+                .collect(),
+            triangles: t,
+        };
+        let params = DecompositionParams {
+            collider: ObjectCollider::Mesh,
+            ..DecompositionParams::default()
+        };
+        let (shape, _) = object_shape(&mesh, &params).unwrap();
+        assert_eq!(shape.method, ShapeMethod::Mesh);
+        assert_eq!(shape.parts.len(), 1);
+        assert_eq!(shape.volume_ratio, Some(1.0));
+        // The L's volume: (0.1 x 0.03 + 0.03 x 0.07) x 0.05 m³; unit density gives it as mass.
+        let volume = (0.1 * 0.03 + 0.03 * 0.07) * 0.05;
+        let mass = shape.unit_mass.mass();
+        assert!((mass - volume).abs() < 1e-3 * volume, "{mass} vs {volume}");
+        // The parts of the same mesh are a different shape, not a cache hit of this one.
+        let (parts, _) = object_shape(&mesh, &DecompositionParams::default()).unwrap();
+        assert_ne!(parts.method, ShapeMethod::Mesh);
     }
 
     /// An L-shaped prism (concave): two boxes sharing a face, as one closed mesh.

@@ -879,6 +879,10 @@ pub fn retarget(
         scale,
     };
     for t in 0..n {
+        // A hand that holds the object starts the frame carried along with it.
+        if t > 0 && !out.contacts[t - 1].is_empty() {
+            tracker.wrist = rec.object[t] * rec.object[t - 1].inverse() * tracker.wrist;
+        }
         let contacts = tracker.frame(
             &resolved,
             &rec.object[t],

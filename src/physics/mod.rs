@@ -320,7 +320,9 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-pub use crate::geometry::hull::{DecompositionParams, ObjectShape, ShapeMethod, object_shape};
+pub use crate::geometry::hull::{
+    DecompositionParams, ObjectCollider, ObjectShape, ShapeMethod, object_shape,
+};
 pub use ensemble::{Decision, Ensemble, EnsembleParams};
 pub use margin::{Margin, margin};
 pub use params::{Actuation, HandModel, Params};
@@ -663,6 +665,55 @@ pub fn hold_displacement(
     params: &Params,
 ) -> f64 {
     checks::sim_displacement(robot, link_poses, object, object_pose, mass, params)
+}
+
+/// Where the object comes to rest when let go at `pose` on the `supports` (world shapes)
+/// with no hand about: [`Params::stability_dt_s`] steps for `seconds` of simulated time. A
+/// recorded rest pose is a few millimetres and degrees off the support it stands on
+/// (capture noise); the replay settles it at the first step and every finger placed on the
+/// recorded pose is then off by as much.
+pub fn settle(
+    robot: &Robot,
+    object: &ObjectShape,
+    pose: &nalgebra::Isometry3<f64>,
+    mass: f64,
+    supports: &[CollisionShape],
+    params: &Params,
+    seconds: f64,
+) -> nalgebra::Isometry3<f64> {
+    // The hand far above, out of the way.
+    let away = nalgebra::Isometry3::translation(0.0, 0.0, pose.translation.z + 100.0);
+    let link_poses = vec![away; robot.link_count()];
+    let fixed: Vec<FixedItem<'_>> = supports
+        .iter()
+        .map(|s| FixedItem {
+            shape: s,
+            tag: Tag::Support,
+        })
+        .collect();
+    let mut world = ReplayWorld::new(
+        robot,
+        &link_poses,
+        object,
+        pose,
+        mass,
+        &fixed,
+        params,
+        params.stability_dt_s,
+        Vector3::from(params.gravity),
+    );
+    let steps = (seconds / params.stability_dt_s)
+        .ceil()
+        .clamp(1.0, 100_000.0) as usize;
+    for _ in 0..steps {
+        world.step();
+    }
+    let end = world.object_pose();
+    if end.translation.vector.iter().all(|v| v.is_finite()) {
+        end
+    } else {
+        *pose
+    }
 }
 
 /// The object's convex decomposition (and whether it came from the cache) and its signed

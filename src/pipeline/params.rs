@@ -27,6 +27,8 @@ pub struct PhysicsOptions {
     pub ensemble: Option<usize>,
     /// Seed of the ensemble's draws; `None` keeps the config's (0 by default).
     pub ensemble_seed: Option<u64>,
+    /// The object's collision shape; `None` keeps the config's (convex parts by default).
+    pub object_collider: Option<physics::ObjectCollider>,
 }
 
 impl PhysicsOptions {
@@ -41,6 +43,9 @@ impl PhysicsOptions {
         }
         if let Some(seed) = self.ensemble_seed {
             base.ensemble.seed = seed;
+        }
+        if let Some(c) = self.object_collider {
+            base.decomposition.collider = c;
         }
         base
     }

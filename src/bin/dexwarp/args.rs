@@ -115,8 +115,30 @@ pub struct PhysicsArgs {
     /// URDF's effort limits, wrist on a stiff spring).
     #[arg(long, value_enum, value_name = "MODEL")]
     pub physics_hand: Option<PhysicsHandArg>,
+    /// The object's collision shape: its convex parts (the default, unless a config's
+    /// params.physics.decomposition.collider says otherwise) or the closed mesh itself (for
+    /// thin-walled objects, whose convex parts come out filled).
+    #[arg(long, value_enum, value_name = "SHAPE")]
+    pub object_collider: Option<ObjectColliderArg>,
     #[command(flatten)]
     pub ensemble: EnsembleArgs,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ObjectColliderArg {
+    /// Convex parts of the mesh (V-HACD).
+    Parts,
+    /// The closed mesh as a triangle mesh.
+    Mesh,
+}
+
+impl From<ObjectColliderArg> for dexwarp::physics::ObjectCollider {
+    fn from(a: ObjectColliderArg) -> Self {
+        match a {
+            ObjectColliderArg::Parts => dexwarp::physics::ObjectCollider::Parts,
+            ObjectColliderArg::Mesh => dexwarp::physics::ObjectCollider::Mesh,
+        }
+    }
 }
 
 impl PhysicsArgs {
@@ -125,6 +147,7 @@ impl PhysicsArgs {
         PhysicsOptions {
             margin: self.margin,
             hand: self.physics_hand.map(Into::into),
+            object_collider: self.object_collider.map(Into::into),
             ..self.ensemble.options()
         }
     }
