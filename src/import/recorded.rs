@@ -56,6 +56,9 @@ pub struct KeypointImport {
     /// The scene the demonstration names, and the table's top height when inferred [m].
     pub scene: PathBuf,
     pub table_top_z_m: Option<f64>,
+    /// How far the object's recorded rest poses were moved to where it settles on the
+    /// supports (see [`settle_rest_poses`]); `None` without supports.
+    pub rest_correction: Option<RestCorrection>,
     /// First and last frame where the recorded hand touches the object.
     pub touch_frames: Option<[usize; 2]>,
     /// Warnings about the recording (object moving before the hand touches it, ...).
@@ -161,6 +164,92 @@ fn moved_before_touch(rec: &Recording, touch: Option<[usize; 2]>) -> Option<[usi
         .filter(|&t| (rec.object[t].translation.vector - start).norm() > 0.005)
         .collect();
     Some([*moved.first()?, *moved.last()?])
+}
+
+/// How the recorded rest poses of the object were moved onto the supports.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct RestCorrection {
+    /// At the first frame and at the last: how far the object moved as it settled [mm] and
+    /// [deg], and whether that pose was corrected (a pose that does not rest on a support,
+    /// an object held in the air at the end, falls further than [`REST_TOLERANCE`] and is
+    /// kept as recorded).
+    pub start_mm: f64,
+    pub start_deg: f64,
+    pub start_corrected: bool,
+    pub end_mm: f64,
+    pub end_deg: f64,
+    pub end_corrected: bool,
+}
+
+/// Largest settling of a recorded rest pose that is taken as capture error [mm], [deg];
+/// beyond it the object was not resting there.
+pub const REST_TOLERANCE: (f64, f64) = (15.0, 10.0);
+
+/// Moves the recording's rest poses to where physics lets the object rest. The recorded
+/// object stands a few millimetres and degrees off its support (marker and calibration
+/// error), and the replay settles it at its first step: every finger placed on the recorded
+/// pose is then off by as much and pushes the object before the lift. The first and the last
+/// pose are each let go on the supports with no hand about for a second of simulated time;
+/// the correction (in the object's own frame) is applied in full while the object rests
+/// within 5 mm of its first (last) pose, blended between, and carried by the hand keypoints
+/// as well, so the hand-object relation of every frame stays as recorded.
+pub fn settle_rest_poses(
+    rec: &mut Recording,
+    robot: &Robot,
+    mesh_path: &Path,
+    mesh: &Mesh,
+    mass: f64,
+    supports: &[crate::geometry::shape::CollisionShape],
+) -> Result<RestCorrection> {
+    let n = rec.len();
+    let shape = crate::geometry::hull::object_shape(mesh, &Default::default())
+        .map_err(|e| Error::invalid(mesh_path, "(mesh)", e.to_string()))?
+        .0;
+    let params = crate::physics::Params::default();
+    let settle = |pose: &Isometry3<f64>| {
+        let end = crate::physics::settle(robot, &shape, pose, mass, supports, &params, 1.0);
+        let delta = pose.inverse() * end;
+        let mm = (end.translation.vector - pose.translation.vector).norm() * 1e3;
+        let deg = delta.rotation.angle().to_degrees();
+        let ok = mm <= REST_TOLERANCE.0 && deg <= REST_TOLERANCE.1;
+        (if ok { delta } else { Isometry3::identity() }, mm, deg, ok)
+    };
+    let (first, start_mm, start_deg, start_corrected) = settle(&rec.object[0]);
+    let (last, end_mm, end_deg, end_corrected) = settle(&rec.object[n - 1]);
+    let near = |t: usize, to: usize| {
+        (rec.object[t].translation.vector - rec.object[to].translation.vector).norm() <= 0.005
+    };
+    // Frames [0, lift) rest at the start, [down, n) at the end.
+    let lift = (0..n).find(|&t| !near(t, 0)).unwrap_or(n);
+    let down = (lift..n)
+        .rev()
+        .find(|&t| !near(t, n - 1))
+        .map_or(lift, |t| t + 1);
+    for t in 0..n {
+        let delta = if t < lift {
+            first
+        } else if t >= down {
+            last
+        } else {
+            let s = (t + 1 - lift) as f64 / (down - lift + 1) as f64;
+            first.lerp_slerp(&last, s)
+        };
+        let before = rec.object[t];
+        let after = before * delta;
+        let world = after * before.inverse();
+        rec.object[t] = after;
+        for p in rec.keypoints[t].iter_mut() {
+            *p = world * *p;
+        }
+    }
+    Ok(RestCorrection {
+        start_mm,
+        start_deg,
+        start_corrected,
+        end_mm,
+        end_deg,
+        end_corrected,
+    })
 }
 
 /// The object mesh made solid: repaired when open, refused when that cannot close it (or
@@ -291,6 +380,18 @@ pub fn import_keypoints(
         .collect::<Result<_>>()?;
     let geometry = ObjectGeometry::new(mesh.clone())
         .ok_or_else(|| Error::invalid(&mesh_path, "(mesh)", "has no triangles"))?;
+    let rest_correction = if supports.is_empty() {
+        None
+    } else {
+        Some(settle_rest_poses(
+            &mut rec,
+            &robot,
+            &mesh_path,
+            &mesh,
+            target.mass,
+            &supports,
+        )?)
+    };
     let ik = crate::hand::ik::Params {
         threshold_mm: 0.5,
         margin_m: options.params.support_margin_m,
@@ -380,6 +481,7 @@ pub fn import_keypoints(
         mesh: mesh_path,
         scene: scene_path,
         table_top_z_m: table_top,
+        rest_correction,
         touch_frames: hand.touch,
         warnings,
         object_volume_ratio: volume_ratio,

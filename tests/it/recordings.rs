@@ -102,6 +102,14 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_the_han
         deepest <= 2.0,
         "the cleaned hand is {deepest} mm in the object"
     );
+    // The recorded rest pose stands a few millimetres and degrees off the table (4.0 mm,
+    // 2.3 degrees as the object settles) and is moved to where it rests; the last of the 60
+    // frames is in the air, mid-lift, and stays as recorded.
+    let rest = &import["rest_correction"];
+    assert_eq!(rest["start_corrected"], true, "{rest}");
+    let moved = rest["start_mm"].as_f64().unwrap();
+    assert!((1.0..15.0).contains(&moved), "{rest}");
+    assert_eq!(rest["end_corrected"], false, "{rest}");
     // The repaired mesh is closed: validate replays it as its decomposition, not its hull,
     // and finds the scene from the demonstration.
     let val = tmp.path().join("val");
@@ -116,4 +124,13 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_the_han
     assert!(o.status.success(), "{}", stderr(&o));
     let report = json(&val.join("report.json"));
     assert_eq!(report["physics"]["replay"]["object_shape"], "decomposition");
+    // Settled, the object waits for the hand where the replay put it: at the first contact
+    // it is within 3 mm of its plan (7.5 mm when the recorded tilt was kept).
+    let onset = report["physics"]["onset"]["position_error_mm"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        onset < 3.0,
+        "object {onset} mm off its plan at first contact"
+    );
 }
