@@ -261,10 +261,11 @@ fn mesh_collider(mesh: &Mesh, repair: Option<Repair>) -> Result<ObjectShape, Sha
 /// fuller than its mesh.
 pub const FULLER_THAN_MESH: f64 = 1.25;
 
-/// `mesh` closed by [`Mesh::repair`] when it is open (with what the repair did), or `mesh`
-/// itself when it is closed. A mesh the repair cannot close comes back unchanged.
+/// `mesh` closed and wound outward by [`Mesh::repair`] when it is open or inside out (with
+/// what the repair did), or `mesh` itself when it is closed and outward. A mesh the repair
+/// cannot close comes back unchanged.
 pub fn solid_mesh(mesh: &Mesh) -> (std::borrow::Cow<'_, Mesh>, Option<Repair>) {
-    if mesh.is_closed_and_consistently_wound() {
+    if mesh.is_closed_and_consistently_wound() && mesh.signed_volume() >= 0.0 {
         return (std::borrow::Cow::Borrowed(mesh), None);
     }
     let mut repaired = mesh.clone();

@@ -32,6 +32,10 @@ pub struct Repair {
     pub holes_filled: Vec<usize>,
     /// Vertices no triangle used any more, removed.
     pub unused_vertices: usize,
+    /// Every triangle's winding was reversed: the closed mesh was inside out (negative signed
+    /// volume), so inside and outside would be swapped.
+    #[serde(default)]
+    pub turned_outward: bool,
     /// The mesh is closed and consistently wound afterwards.
     pub closed: bool,
 }
@@ -44,6 +48,7 @@ impl Repair {
             && self.degenerate == 0
             && self.holes_filled.is_empty()
             && self.unused_vertices == 0
+            && !self.turned_outward
     }
 }
 
@@ -87,6 +92,12 @@ impl fmt::Display for Repair {
                 "dropped {}",
                 plural(self.unused_vertices, "unused vertex", "unused vertices")
             ));
+        }
+        if self.turned_outward {
+            parts.push(
+                "turned every triangle outward (the mesh was inside out: negative signed volume)"
+                    .into(),
+            );
         }
         if parts.is_empty() {
             parts.push("nothing to repair".into());
@@ -186,11 +197,12 @@ impl Mesh {
     /// Removes zero-volume sliver pairs, repeated triangles and triangles with a repeated
     /// vertex, fills holes of at most [`MAX_HOLE_EDGES`] edges whose rims are simple loops,
     /// drops unused vertices, and winds the result outward when it is closed (see the module
-    /// docs). Deterministic; a closed mesh comes back unchanged.
+    /// docs). Deterministic; a closed mesh comes back unchanged but for its winding.
     pub fn repair(&mut self) -> Repair {
         let mut r = Repair::default();
         if self.is_closed_and_consistently_wound() {
             r.closed = true;
+            r.turned_outward = self.orient_outward();
             return r;
         }
         // Triangles by their vertex set, in file order.
@@ -257,7 +269,7 @@ impl Mesh {
         r.unused_vertices = self.drop_unused_vertices();
         r.closed = self.is_closed_and_consistently_wound();
         if r.closed {
-            self.orient_outward();
+            r.turned_outward = self.orient_outward();
         }
         r
     }
@@ -432,8 +444,21 @@ mod tests {
         m.triangles.push([0, 1, 3]);
         m.triangles.push([0, 3, 1]);
         let r = m.repair();
-        assert!(r.closed);
+        assert!(r.closed && r.turned_outward, "{r}");
         assert!(m.signed_volume() > 0.0);
+    }
+
+    #[test]
+    fn an_inside_out_closed_mesh_is_turned_outward_and_says_so() {
+        let mut m = cube();
+        for t in &mut m.triangles {
+            t.swap(1, 2);
+        }
+        assert!(m.is_closed_and_consistently_wound() && m.signed_volume() < 0.0);
+        let r = m.repair();
+        assert!(r.closed && r.turned_outward && !r.is_empty(), "{r}");
+        assert!(r.to_string().contains("inside out"), "{r}");
+        assert!((m.signed_volume() - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -6,8 +6,9 @@
 //! mesh frame to the world), and 21 keypoints [m] as `NAME_x, NAME_y, NAME_z` in the
 //! MANO/OpenPose order ([`KEYPOINTS`]: `wrist`, then `thumb_cmc, thumb_mcp, thumb_ip,
 //! thumb_tip`, then `mcp, pip, dip, tip` of `index`, `middle`, `ring`, `little`). A `.` may
-//! stand for the `_` before the axis (`wrist.x`), and `pinky` for `little`. `frame` and
-//! `time_s` columns are allowed and ignored; any other column is refused. World z is up.
+//! stand for the `_` before the axis (`wrist.x`), and `pinky` for `little`. A `frame` column is
+//! allowed and ignored, a `time_s` column must increase row by row; any other column is
+//! refused. World z is up.
 //!
 //! **Mirroring.** The target hands are right hands. A left-hand recording
 //! (`--handedness left`) is mirrored through the vertical plane `x = x₀` of the object's
@@ -161,19 +162,8 @@ fn canonical(name: &str) -> String {
     s.replace("pinky", "little")
 }
 
-/// Reads a keypoints CSV (see the module docs). Errors name the file, row and column.
-pub fn read_keypoints_csv(path: &Path, limits: &Limits) -> Result<Recording> {
-    let bytes =
-        crate::model::json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_reader(bytes.as_slice());
-    let header: Vec<String> = rdr
-        .headers()
-        .map_err(|e| Error::invalid(path, "header", format!("{e}; expected a CSV header row")))?
-        .iter()
-        .map(canonical)
-        .collect();
+/// The columns a keypoints CSV must have, in reading order, and where each is in `header`.
+fn keypoint_columns(path: &Path, header: &[String]) -> Result<(Vec<String>, Vec<usize>)> {
     let mut wanted: Vec<String> = ["x", "y", "z", "qw", "qx", "qy", "qz"]
         .iter()
         .map(|a| format!("obj_{a}"))
@@ -214,10 +204,28 @@ pub fn read_keypoints_csv(path: &Path, limits: &Limits) -> Result<Recording> {
             })
         })
         .collect::<Result<_>>()?;
+    Ok((wanted, columns))
+}
+
+/// Reads a keypoints CSV (see the module docs). Errors name the file, row and column.
+pub fn read_keypoints_csv(path: &Path, limits: &Limits) -> Result<Recording> {
+    let bytes =
+        crate::model::json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(bytes.as_slice());
+    let header: Vec<String> = rdr
+        .headers()
+        .map_err(|e| Error::invalid(path, "header", format!("{e}; expected a CSV header row")))?
+        .iter()
+        .map(canonical)
+        .collect();
+    let (wanted, columns) = keypoint_columns(path, &header)?;
     let mut rec = Recording {
         object: Vec::new(),
         keypoints: Vec::new(),
     };
+    let mut clock = super::Clock::find(&header, &["time_s"]);
     for (row, record) in rdr.records().enumerate() {
         let record = record.map_err(|e| {
             Error::invalid(
@@ -226,6 +234,9 @@ pub fn read_keypoints_csv(path: &Path, limits: &Limits) -> Result<Recording> {
                 format!("{e}; expected one value per header column"),
             )
         })?;
+        if let Some(c) = &mut clock {
+            c.check(path, row + 1, &record)?;
+        }
         if rec.object.len() as u64 >= limits.max_frames {
             return Err(Error::TooLarge {
                 path: path.to_path_buf(),
@@ -284,6 +295,7 @@ pub fn read_keypoints_csv(path: &Path, limits: &Limits) -> Result<Recording> {
 /// A bone of the recorded hand: the capsule from keypoint `from` to `to` with `radius` [m],
 /// and the robot link it maps onto.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Bone {
     pub from: String,
     pub to: String,
@@ -293,6 +305,7 @@ pub struct Bone {
 
 /// Where each keypoint sits on the robot, and which link each recorded bone maps onto.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct KeypointMap {
     /// Keypoint name → (link, point in the link frame [m]).
     pub keypoints: Vec<(String, String, [f64; 3])>,

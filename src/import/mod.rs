@@ -5,8 +5,9 @@
 //! `object.x, object.y, object.z, object.qw, object.qx, object.qy, object.qz` (object pose in
 //! the world [m], quaternion `[w, x, y, z]`), `wrist.x` ... `wrist.qz` (the pose of the
 //! URDF's root link, same layout), and one column per actuated joint of the URDF, named as
-//! the joint [rad or m]. A `frame` or `timestamp` column is allowed and ignored; any other
-//! column is refused (a typo would otherwise drop a joint silently).
+//! the joint [rad or m]. A `frame` column is allowed and ignored, a `timestamp` column must
+//! increase row by row and is otherwise ignored; any other column is refused (a typo would
+//! otherwise drop a joint silently).
 //!
 //! **Contacts** (optional second CSV, one row per correspondence): `frame` (0-based row of
 //! the frames CSV), `link` (a link of the URDF), `hand_x, hand_y, hand_z` (point in the link
@@ -95,6 +96,62 @@ fn pose_from(path: &Path, row: usize, names: &[String; 7], v: &[f64]) -> Result<
     ))
 }
 
+/// A clock column of a frames CSV (`timestamp`, `time_s`): read for its order only, which must
+/// be increasing, since a clock that runs backwards or stands still means rows out of order
+/// or repeated (the frame rate comes from `--fps`).
+pub(crate) struct Clock {
+    column: usize,
+    name: String,
+    last: Option<f64>,
+}
+
+impl Clock {
+    /// The first of `names` in `header`, if any.
+    pub(crate) fn find(header: &[String], names: &[&str]) -> Option<Self> {
+        header.iter().enumerate().find_map(|(column, h)| {
+            names.contains(&h.as_str()).then(|| Clock {
+                column,
+                name: h.clone(),
+                last: None,
+            })
+        })
+    }
+
+    /// Checks `record` (1-based `row`) against the previous row.
+    pub(crate) fn check(
+        &mut self,
+        path: &Path,
+        row: usize,
+        record: &csv::StringRecord,
+    ) -> Result<()> {
+        let text = record.get(self.column).unwrap_or("");
+        let field = || format!("row {row}, column {}", self.name);
+        let t: f64 = text.parse().map_err(|_| {
+            Error::invalid(path, field(), format!("is {text:?}; expected a number"))
+        })?;
+        if !t.is_finite() {
+            return Err(Error::invalid(
+                path,
+                field(),
+                format!("is {t}; expected a finite time"),
+            ));
+        }
+        if let Some(last) = self.last
+            && t <= last
+        {
+            return Err(Error::invalid(
+                path,
+                field(),
+                format!(
+                    "is {t}, not after the previous row's {last}; expected times that increase row by row (rows out of order or repeated)"
+                ),
+            ));
+        }
+        self.last = Some(t);
+        Ok(())
+    }
+}
+
 /// Reads the frames CSV (see the module docs) for `robot`.
 pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Vec<Pose>> {
     let bytes =
@@ -152,6 +209,7 @@ pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Ve
     }
     let mut out = Vec::new();
     let mut values = vec![0.0; wanted.len()];
+    let mut clock = Clock::find(&header, &["timestamp"]);
     for (r, rec) in rdr.records().enumerate() {
         let row = r + 1;
         if out.len() as u64 >= limits.max_frames {
@@ -172,6 +230,9 @@ pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Ve
             };
             Error::invalid(path, format!("row {row}"), msg)
         })?;
+        if let Some(c) = &mut clock {
+            c.check(path, row, &rec)?;
+        }
         for (k, &c) in cols.iter().enumerate() {
             let text = rec.get(c).unwrap_or("");
             let v: f64 = text.parse().map_err(|_| {

@@ -260,8 +260,7 @@ fn solid_object(
     mut mesh: Mesh,
     hull_fallback: bool,
 ) -> Result<(Mesh, Option<Repair>, Option<[f64; 2]>)> {
-    if mesh.is_closed_and_consistently_wound() {
-        mesh.orient_outward();
+    if mesh.is_closed_and_consistently_wound() && mesh.signed_volume() >= 0.0 {
         return Ok((mesh, None, None));
     }
     let before = mesh.clone();

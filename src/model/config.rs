@@ -21,6 +21,7 @@ pub const CONFIG_FORMAT: &str = "dexwarp.config/1";
 
 /// A rotation stored as axis and angle.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct AxisAngleJson {
     /// Rotation axis (any non-zero length; normalized on load).
     pub axis: [f64; 3],
@@ -30,6 +31,7 @@ pub struct AxisAngleJson {
 
 /// A waypoint as stored.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct WaypointJson {
     /// World position the object origin must pass through [m].
     pub position: [f64; 3],
@@ -138,6 +140,7 @@ impl Default for WarpParams {
 
 /// A config file exactly as stored.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ConfigFile {
     pub format: String,
     pub name: String,
@@ -370,7 +373,9 @@ fn axis_angle(c: &FieldCheck, j: usize, r: AxisAngleJson) -> Result<UnitQuaterni
     if angle == 0.0 {
         return Ok(UnitQuaternion::identity());
     }
-    if axis.norm() < 1e-9 {
+    // Scaled by its largest component first: the norm of [1e300, 1e300, 0] overflows.
+    let largest = axis.amax();
+    if largest == 0.0 {
         return Err(Error::invalid(
             c.path,
             format!("waypoints[{j}].rotation.axis"),
@@ -381,7 +386,7 @@ fn axis_angle(c: &FieldCheck, j: usize, r: AxisAngleJson) -> Result<UnitQuaterni
         ));
     }
     Ok(UnitQuaternion::from_axis_angle(
-        &Unit::new_normalize(axis),
+        &Unit::new_normalize(axis / largest),
         angle,
     ))
 }

@@ -22,6 +22,7 @@ pub const DEMO_FORMAT: &str = "dexwarp.demo/1";
 
 /// A pose as stored in JSON.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PoseJson {
     /// World position [m].
     pub position: [f64; 3],
@@ -40,6 +41,7 @@ impl PoseJson {
 
 /// The object of a demonstration, as stored.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ObjectJson {
     pub name: String,
     /// Mesh file (OBJ or STL), relative to the demonstration file.
@@ -50,6 +52,7 @@ pub struct ObjectJson {
 
 /// One contact correspondence, as stored.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ContactJson {
     /// Hand link name (a link of the robot).
     pub link: String,
@@ -61,6 +64,7 @@ pub struct ContactJson {
 
 /// One frame, as stored.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FrameJson {
     pub object: PoseJson,
     pub wrist: PoseJson,
@@ -72,6 +76,7 @@ pub struct FrameJson {
 
 /// A demonstration file exactly as stored (`dexwarp.demo/1`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DemoFile {
     pub format: String,
     pub name: String,

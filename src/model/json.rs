@@ -111,9 +111,45 @@ fn parse_error(path: &Path, bytes: &[u8], field: String, err: serde_json::Error)
             } else {
                 field
             },
-            message: strip_position(&err.to_string()),
+            message: with_suggestion(strip_position(&err.to_string())),
         },
     }
+}
+
+/// serde's "unknown field `barrier`, expected one of `name`, `barriers`, ..." (or
+/// "expected `x` or `y`", or "unknown variant ...") with the nearest known name appended when
+/// one is close: "did you mean `barriers`?".
+fn with_suggestion(message: String) -> String {
+    let Some(rest) = message
+        .strip_prefix("unknown field `")
+        .or_else(|| message.strip_prefix("unknown variant `"))
+    else {
+        return message;
+    };
+    let Some((unknown, expected)) = rest.split_once('`') else {
+        return message;
+    };
+    let known: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+    match nearest_name(unknown, &known) {
+        Some(k) => format!("{message}; did you mean `{k}`?"),
+        None => message,
+    }
+}
+
+/// The name in `known` nearest to `word` by edit distance, if it is at most a third of the
+/// longer name's length (at least 1) away: a typo, not another word.
+pub fn nearest_name<'a>(word: &str, known: &[&'a str]) -> Option<&'a str> {
+    known
+        .iter()
+        .map(|k| {
+            (
+                strsim::levenshtein(&word.to_lowercase(), &k.to_lowercase()),
+                *k,
+            )
+        })
+        .filter(|(d, k)| *d <= (word.chars().count().max(k.chars().count()) / 3).max(1))
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, k)| k)
 }
 
 fn strip_position(message: &str) -> String {
@@ -382,6 +418,36 @@ mod tests {
         assert!(msg.contains("x.json"), "{msg}");
         assert!(msg.contains("frames[1][1].link"), "{msg}");
         assert!(msg.contains("expected a string"), "{msg}");
+    }
+
+    #[test]
+    fn unknown_keys_are_refused_with_the_nearest_known_one() {
+        #[derive(Debug, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct Config {
+            barriers: Vec<String>,
+            waypoints: Vec<f64>,
+        }
+        let text = br#"{"barrier": ["wall"], "waypoints": []}"#;
+        let msg = parse_json::<Config>(Path::new("c.json"), text)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("c.json") && msg.contains("unknown field `barrier`"),
+            "{msg}"
+        );
+        assert!(msg.ends_with("did you mean `barriers`?"), "{msg}");
+        // Nothing near: no guess.
+        let text = br#"{"colour": 1, "barriers": [], "waypoints": []}"#;
+        let msg = parse_json::<Config>(Path::new("c.json"), text)
+            .unwrap_err()
+            .to_string();
+        assert!(!msg.contains("did you mean"), "{msg}");
+        assert_eq!(
+            nearest_name("Waypoint", &["barriers", "waypoints"]),
+            Some("waypoints")
+        );
     }
 
     #[test]

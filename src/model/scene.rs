@@ -72,6 +72,7 @@ fn unit_scale() -> [f64; 3] {
 
 /// A pose as stored in a scene (orientation optional, `[w, x, y, z]`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ScenePoseJson {
     pub position: [f64; 3],
     #[serde(default = "identity_wxyz")]
@@ -84,6 +85,7 @@ fn identity_wxyz() -> [f64; 4] {
 
 /// An item as stored.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SceneItemJson {
     pub name: String,
     pub role: Role,
@@ -93,6 +95,7 @@ pub struct SceneItemJson {
 
 /// A scene file as stored.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SceneFile {
     pub format: String,
     pub name: String,

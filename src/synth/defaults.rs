@@ -261,6 +261,11 @@ pub fn run(req: &SynthRequest, limits: &Limits) -> Result<Synthesis> {
         .map_err(|e: super::motion::UnknownMotion| {
             Error::invalid(cli, "--motion", e.to_string())
         })?;
+    // A mesh to reference must load before anything is written: a demonstration naming a
+    // missing or broken mesh loads nowhere.
+    if let Some(mesh) = &req.mesh {
+        crate::geometry::Mesh::load(mesh, nalgebra::Vector3::repeat(1.0), limits)?;
+    }
     let mut robot = Robot::from_urdf_file_at(&req.robot, limits, req.wrist_link.as_deref())?;
     // Without --wrist-link, the wrist is the fingers' common palm link (a forearm above it
     // and its joints are left out).

@@ -965,3 +965,185 @@ fn a_configs_physics_block_reaches_the_replay_and_bad_ones_are_named() {
         assert!(!dir.path().join(name).exists(), "{name}: output written");
     }
 }
+
+#[test]
+fn typos_and_inputs_no_command_could_use_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = gripper_fixture(dir.path());
+    let out = dir.path().join("out");
+    let c = read_json(&config);
+    // A typo of a config key: refused with the nearest known key, not run without the wall.
+    let mut typo = c.clone();
+    let walls = typo.as_object_mut().unwrap().remove("barriers").unwrap();
+    typo["barrier"] = walls;
+    let path = dir.path().join("typo.config.json");
+    write_json(&path, &typo);
+    refused(
+        &["warp", "--config", s(&path), "--out", s(&out)],
+        &[
+            "typo.config.json",
+            "unknown field `barrier`",
+            "did you mean `barriers`?",
+        ],
+        3.0,
+    );
+    // Unknown keys in a demonstration's object and in one of its frames: refused, with the
+    // JSON path.
+    let demo_path = dir.path().join("box.demo.json");
+    let demo = read_json(&demo_path);
+    for (at, key) in [("object", "maas"), ("frames[3]", "contact")] {
+        let mut d = demo.clone();
+        let target = if at == "object" {
+            &mut d["object"]
+        } else {
+            &mut d["frames"][3]
+        };
+        target[key] = 1.into();
+        let p = dir.path().join("typo.demo.json");
+        write_json(&p, &d);
+        refused(
+            &["validate", s(&p), "--out", s(&out)],
+            &["typo.demo.json", &format!("{at}.{key}"), "unknown field"],
+            3.0,
+        );
+    }
+    // A rotation axis whose norm overflows is a direction like any other: the warp runs
+    // (and is not blamed on the demonstration's frames).
+    let mut axis = c.clone();
+    axis["waypoints"][0]["rotation"] =
+        serde_json::json!({"axis": [1e300, 1e300, 0.0], "angle": 0.2});
+    let path = dir.path().join("axis.config.json");
+    write_json(&path, &axis);
+    let o = dexwarp(&[
+        "warp",
+        "--config",
+        s(&path),
+        "--out",
+        s(&out),
+        "--hand",
+        "baseline",
+        "--no-physics",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // An output far longer than memory can hold: refused at once, naming the flag.
+    let mut long = c.clone();
+    long["waypoints"][0]["t_new"] = 999_000.into();
+    long["params"] = serde_json::json!({"end_t_new": 999_100});
+    let path = dir.path().join("long.config.json");
+    write_json(&path, &long);
+    refused(
+        &["warp", "--config", s(&path), "--out", s(&out)],
+        &["long.config.json", "999", "--max-frames", "48 KiB"],
+        3.0,
+    );
+    // synth referencing a mesh that does not exist: refused before anything is written.
+    let synth_out = dir.path().join("synth/box.demo.json");
+    let o = dexwarp(&[
+        "synth",
+        "--object",
+        "small_box",
+        "--robot",
+        s(&crate::fixtures::repo("robots/parallel_gripper.urdf")),
+        "--motion",
+        "lift_place",
+        "--mesh",
+        "/nope/box.obj",
+        "--out",
+        s(&synth_out),
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("/nope/box.obj"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!synth_out.exists() && !dir.path().join("synth").exists());
+}
+
+#[test]
+fn recordings_whose_clock_runs_backwards_are_refused_and_inside_out_meshes_turned() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = crate::fixtures::repo("robots/parallel_gripper.urdf");
+    let header = "timestamp,object.x,object.y,object.z,object.qw,object.qx,object.qy,object.qz,wrist.x,wrist.y,wrist.z,wrist.qw,wrist.qx,wrist.qy,wrist.qz,finger_joint1";
+    let row = |t: f64| format!("{t},0,0,0.93,1,0,0,0,0,0,1.06,0,1,0,0,0.024");
+    let csv = dir.path().join("rec.csv");
+    let rows: Vec<String> = [0.0, 0.033, 0.033, 0.1].iter().map(|&t| row(t)).collect();
+    std::fs::write(&csv, format!("{header}\n{}\n", rows.join("\n"))).unwrap();
+    // The small box, inside out: every triangle reversed.
+    let mesh =
+        std::fs::read_to_string(crate::fixtures::repo("scenes/objects/small_box.obj")).unwrap();
+    let flipped: String = mesh
+        .lines()
+        .map(|l| match l.strip_prefix("f ") {
+            Some(f) => {
+                let v: Vec<&str> = f.split_whitespace().collect();
+                format!("f {} {} {}\n", v[0], v[2], v[1])
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    let inside_out = dir.path().join("inside_out.obj");
+    std::fs::write(&inside_out, flipped).unwrap();
+    let import = |csv: &Path, out: &Path| {
+        dexwarp(&[
+            "import",
+            "--csv",
+            s(csv),
+            "--fps",
+            "30",
+            "--robot",
+            s(&robot),
+            "--mesh",
+            s(&inside_out),
+            "--mass",
+            "0.1",
+            "--out",
+            s(out),
+        ])
+    };
+    let with_correspondences = |err: &str| -> usize {
+        let (head, _) = err.split_once(" with correspondences").expect(err);
+        head.rsplit(' ').next().unwrap().parse().unwrap()
+    };
+    let out = dir.path().join("rec.demo.json");
+    let o = import(&csv, &out);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("rec.csv")
+            && err.contains("row 3, column timestamp")
+            && err.contains("increase"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // In order, it imports; the inside-out mesh is said and used turned outward.
+    let rows: Vec<String> = [0.0, 0.033, 0.066, 0.1].iter().map(|&t| row(t)).collect();
+    std::fs::write(&csv, format!("{header}\n{}\n", rows.join("\n"))).unwrap();
+    let o = import(&csv, &out);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("inside_out.obj") && err.contains("inside out"),
+        "{err}"
+    );
+    // Its correspondences are the outward mesh's (inside out, the fingers read as inside the
+    // object and none were found).
+    let found = with_correspondences(&err);
+    let o = dexwarp(&[
+        "import",
+        "--csv",
+        s(&csv),
+        "--fps",
+        "30",
+        "--robot",
+        s(&robot),
+        "--mesh",
+        s(&crate::fixtures::repo("scenes/objects/small_box.obj")),
+        "--mass",
+        "0.1",
+        "--out",
+        s(&dir.path().join("outward.demo.json")),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let expected = with_correspondences(&stderr(&o));
+    assert!(expected > 0 && found == expected, "{found} vs {expected}");
+}

@@ -149,6 +149,22 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         )?,
         (None, None) => anyhow::bail!("give --csv FILE or --lerobot DIR"),
     };
+    // The mesh the demonstration names as given: every later command repairs it the same way
+    // in memory (or refuses it), and says so; say it here first.
+    if let Ok(mesh) =
+        dexwarp::geometry::Mesh::load(&target.mesh, nalgebra::Vector3::repeat(1.0), &limits)
+        && let (_, Some(repair)) = dexwarp::geometry::hull::solid_mesh(&mesh)
+    {
+        eprintln!(
+            "{}: the object mesh is not closed and outward as given: {repair}; {}",
+            target.mesh.display(),
+            if repair.closed {
+                "every command uses it so repaired"
+            } else {
+                "physics refuses it unless physics.decomposition.hull_fallback is set"
+            }
+        );
+    }
     let with = demo
         .frames
         .iter()
