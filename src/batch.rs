@@ -231,13 +231,14 @@ pub fn run(items: &[Item], out: &Path, options: &BatchOptions) -> Result<Vec<Out
     };
     let done: std::sync::Mutex<Vec<Option<Outcome>>> =
         std::sync::Mutex::new(vec![None; selected.len()]);
-    let bar = progress::bar(selected.len() as u64, options.progress);
+    let mut bar = progress::Progress::new("batch", selected.len() as u64, options.progress);
     let work = || {
         selected
             .par_iter()
             .enumerate()
             .map(|(k, it)| {
                 let o = run_item(it, out, options);
+                bar.set_message(o.name.clone());
                 bar.inc(1);
                 if o.status == "failed" {
                     bar.println(format!("{}: {}", o.name, o.error));

@@ -112,7 +112,7 @@ pub fn run(o: &AugmentOptions) -> Result<Augment> {
                 .is_none_or(|s| *i % s.count as u64 == s.index as u64)
         })
         .collect();
-    let bar = progress::bar(indices.len() as u64, o.progress);
+    let mut bar = progress::Progress::new("augment", indices.len() as u64, o.progress);
     let work = || {
         indices
             .par_iter()

@@ -291,7 +291,8 @@ pub fn collect(options: &ExportOptions, limits: &Limits) -> Result<Collected> {
             "contains no report.json; expected an output folder of warp, batch, augment or reproduce, or a .demo.json file",
         ));
     }
-    let bar = crate::output::progress::bar(found.len() as u64, options.progress);
+    let mut bar =
+        crate::output::progress::Progress::new("export", found.len() as u64, options.progress);
     bar.set_message("reading trajectories");
     let loaded: Vec<(Found, std::result::Result<Loaded, LoadError>)> = found
         .into_par_iter()

@@ -254,7 +254,7 @@ pub fn run(options: &ReproduceOptions) -> Result<Reproduction> {
             }
         }
     }
-    let bar = progress::bar(jobs.len() as u64, options.progress);
+    let mut bar = progress::Progress::new("reproduce", jobs.len() as u64, options.progress);
     let work = || {
         jobs.par_iter()
             .map(|(config, variant)| {

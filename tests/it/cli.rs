@@ -468,17 +468,27 @@ fn reproduce_runs_on_a_scene_folder_and_refuses_a_folder_without_configs() {
         .replace("\"scene.json\"", "\"../../scene.json\"");
     std::fs::write(configs.join("box_lift.json"), text).unwrap();
     let out = root.path().join("out");
-    let o = dexwarp(&[
-        "reproduce",
-        "--quick",
-        "--root",
-        root.path().to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    // Standard error is a pipe here, as in a Slurm or CI log: progress comes as lines.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_dexwarp"))
+        .args([
+            "reproduce",
+            "--quick",
+            "--root",
+            root.path().to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .env("DEXWARP_PROGRESS_S", "0.05")
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     // Three LM thresholds on each objective, Adam and the baseline for the one config.
     assert!(stderr(&o).contains("8 runs"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("reproduce: 8/8 (100 %) in "),
+        "{}",
+        stderr(&o)
+    );
     assert!(out.join("summary.md").is_file() && out.join("index.html").is_file());
     let o = dexwarp(&[
         "reproduce",

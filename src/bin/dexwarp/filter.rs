@@ -11,7 +11,7 @@ use crate::args::{fraction, positive_deg, positive_mm};
 /// Read the reports below DIR, keep what passes, and list why each of the rest was dropped.
 #[derive(Debug, Args)]
 #[command(
-    after_help = "Writes KEEP.csv (kept) and KEEP.dropped.csv (dropped, with every reason).\n\nExamples:\n  dexwarp filter reports/latest --out keep.csv\n  dexwarp filter out/batch --max-dc-mm 5 --min-converged 0.99 --out keep.csv"
+    after_help = "Writes KEEP.csv (kept) and KEEP.dropped.csv (dropped, with every reason).\n\nExamples:\n  dexwarp filter out/reproduce --out keep.csv\n  dexwarp filter out/batch --max-dc-mm 5 --min-converged 0.99 --out keep.csv"
 )]
 pub struct FilterArgs {
     /// Folder with report.json files (searched recursively).

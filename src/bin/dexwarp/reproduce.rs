@@ -13,11 +13,12 @@ use crate::args::{EnsembleArgs, Workers};
 /// HTML report.
 #[derive(Debug, Args)]
 #[command(
-    after_help = "Run it from the repository root (it reads scenes/ and robots/ there).\n\nExamples:\n  dexwarp reproduce\n  dexwarp reproduce --quick --out /tmp/quick\n  dexwarp reproduce --out reports/latest --jobs 2"
+    after_help = "Run it from the repository root (it reads scenes/ and robots/ there).\n\nExamples:\n  dexwarp reproduce\n  dexwarp reproduce --quick --out /tmp/quick\n  dexwarp reproduce --out reports/latest --jobs 2   # refresh the committed example run"
 )]
 pub struct ReproduceArgs {
-    /// Output folder.
-    #[arg(long, value_name = "DIR", default_value = "reports/latest")]
+    /// Output folder (ignored by git in the repository; `--out reports/latest` refreshes the
+    /// committed example run).
+    #[arg(long, value_name = "DIR", default_value = "out/reproduce")]
     out: PathBuf,
     /// A quick pass: Adam on three configs only, robustness at 0/50/100 %.
     #[arg(long)]
