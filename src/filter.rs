@@ -325,8 +325,16 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     }
     // An empty list still gets its header, so readers see the columns.
     if rows.is_empty() {
-        w.write_record(["name", "report", "demo", "d_c_mm", "verdict", "reasons"])
-            .map_err(|e| Error::write(path, std::io::Error::other(e)))?;
+        w.write_record([
+            "name",
+            "report",
+            "demo",
+            "d_c_mm",
+            "verdict",
+            "pass_fraction",
+            "reasons",
+        ])
+        .map_err(|e| Error::write(path, std::io::Error::other(e)))?;
     }
     let bytes = w
         .into_inner()

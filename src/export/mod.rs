@@ -164,6 +164,10 @@ pub fn pose_names(prefix: &str) -> Vec<String> {
 pub fn find(inputs: &[PathBuf]) -> Result<Vec<Found>> {
     let mut out = Vec::new();
     for input in inputs {
+        if input.is_file() && input.extension().is_some_and(|e| e == "csv") {
+            out.extend(from_list(input)?);
+            continue;
+        }
         if input.is_file() {
             out.push(Found {
                 demo: input.clone(),
@@ -175,7 +179,7 @@ pub fn find(inputs: &[PathBuf]) -> Result<Vec<Found>> {
             return Err(Error::invalid(
                 input,
                 "(input)",
-                "does not exist; expected an output folder of warp, batch, augment or reproduce, or a .demo.json file",
+                "does not exist; expected an output folder of warp, batch, augment or reproduce, a .demo.json file, or a list `dexwarp filter` wrote",
             ));
         }
         for report in crate::filter::find_reports(input)? {
@@ -186,6 +190,61 @@ pub fn find(inputs: &[PathBuf]) -> Result<Vec<Found>> {
                 report: Some(report),
             });
         }
+    }
+    Ok(out)
+}
+
+/// The trajectories of a list `dexwarp filter` wrote (`KEEP.csv`, or its `.dropped.csv`):
+/// every row's report and demonstration. A relative path is taken from the current folder
+/// (where `filter` ran) when it is there, else from the list's folder.
+fn from_list(list: &Path) -> Result<Vec<Found>> {
+    #[derive(serde::Deserialize)]
+    struct ListRow {
+        name: String,
+        report: String,
+        demo: String,
+    }
+    let bytes = std::fs::read(list).map_err(|e| Error::read(list, e))?;
+    let mut rdr = csv::Reader::from_reader(bytes.as_slice());
+    let header = rdr
+        .headers()
+        .map_err(|e| Error::invalid(list, "header", e.to_string()))?
+        .clone();
+    if !["name", "report", "demo"]
+        .iter()
+        .all(|c| header.iter().any(|h| h == *c))
+    {
+        return Err(Error::invalid(
+            list,
+            "header",
+            format!(
+                "is {:?}; expected a list written by `dexwarp filter` (columns name, report, demo, ...)",
+                header.iter().collect::<Vec<_>>()
+            ),
+        ));
+    }
+    let base = list.parent().unwrap_or(Path::new(""));
+    let resolve = |p: &str| {
+        let p = PathBuf::from(p);
+        if p.is_absolute() || p.exists() {
+            p
+        } else {
+            base.join(p)
+        }
+    };
+    let mut out = Vec::new();
+    for (i, row) in rdr.deserialize::<ListRow>().enumerate() {
+        let row = row.map_err(|e| Error::invalid(list, format!("row {}", i + 1), e.to_string()))?;
+        let report = resolve(&row.report);
+        let demo = if row.demo.is_empty() {
+            report.with_file_name(format!("{}.demo.json", row.name))
+        } else {
+            resolve(&row.demo)
+        };
+        out.push(Found {
+            demo,
+            report: Some(report),
+        });
     }
     Ok(out)
 }

@@ -837,3 +837,72 @@ fn python_readback(python: &str, script: &str, out: &Path, expected: &serde_json
     );
     eprintln!("{}", String::from_utf8_lossy(&o.stdout).trim());
 }
+
+#[test]
+fn export_of_a_filter_list_holds_exactly_the_kept_trajectories() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = small_batch(dir.path());
+    let dc = |k: &str| -> f64 {
+        let r: Value =
+            serde_json::from_slice(&std::fs::read(runs.join(k).join("report.json")).unwrap())
+                .unwrap();
+        r["metrics"]["d_c_mm"]["warped"].as_f64().unwrap()
+    };
+    // A D_C bound between the two runs' keeps the closer one only (on this fixture the
+    // rigid baseline: its correspondences are exact).
+    let (a, b) = (dc("a"), dc("b"));
+    assert!(a != b, "{a} vs {b}");
+    let closer = if a < b { "a" } else { "b" };
+    let keep = dir.path().join("keep.csv");
+    let bound = format!("{}", (a + b) / 2.0);
+    let o = dexwarp(&[
+        "filter",
+        s(&runs),
+        "--no-physics",
+        "--max-dc-mm",
+        &bound,
+        "--out",
+        s(&keep),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let kept = std::fs::read_to_string(&keep).unwrap();
+    assert_eq!(kept.lines().count(), 2, "{kept}");
+    let out = dir.path().join("dataset");
+    let o = dexwarp(&["export", s(&keep), "--format", "lerobot", "--out", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let ds = lerobot::read(&out).unwrap();
+    assert_eq!(ds.info["total_episodes"], 1);
+    let demo = Demo::load(
+        &runs.join(closer).join("box_lift.demo.json"),
+        &Limits::default(),
+    )
+    .unwrap();
+    assert_eq!(ds.frames.rows, demo.frames.len());
+    // The dropped list exports the other one; a CSV that is not a filter list is refused.
+    let o = dexwarp(&[
+        "export",
+        s(&dir.path().join("keep.dropped.csv")),
+        "--format",
+        "lerobot",
+        "--out",
+        s(&dir.path().join("dropped")),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bad = dir.path().join("other.csv");
+    std::fs::write(&bad, "a,b\n1,2\n").unwrap();
+    let o = dexwarp(&[
+        "export",
+        s(&bad),
+        "--format",
+        "lerobot",
+        "--out",
+        s(&dir.path().join("x")),
+    ]);
+    assert!(
+        !o.status.success()
+            && stderr(&o).contains("other.csv")
+            && stderr(&o).contains("dexwarp filter"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -14,7 +14,7 @@ pub struct LimitArgs {
     /// Largest JSON, URDF or mesh file read [MiB] (default 512).
     #[arg(long, global = true, value_name = "MIB")]
     max_file_mb: Option<u64>,
-    /// Most frames in one demonstration (default 1000000).
+    /// Most frames in one demonstration (default 200000).
     #[arg(long, global = true, value_name = "N")]
     max_frames: Option<u64>,
     /// Most contact correspondences in one frame (default 2048).

@@ -18,10 +18,11 @@ pub enum ExportFormat {
 /// .demo.json files) as one training dataset, quality figures as per-episode columns.
 #[derive(Debug, Args)]
 #[command(
-    after_help = "Formats: lerobot (LeRobot v3.0, state only, a folder), robomimic (one HDF5 file; a build with --features robomimic and the HDF5 C library). The column mapping and the HDF5 layout are in the README (Export and import).\n\nExamples:\n  dexwarp export out/reproduce --format lerobot --robot human_hand --out out/dataset\n  dexwarp export out/aug/mug --format lerobot --only-passing --out out/mug_kept\n  dexwarp export out/mug.demo.json --format lerobot --fps 30 --out out/mug_lerobot\n  dexwarp export out/aug/mug --format robomimic --out out/mug.hdf5"
+    after_help = "Formats: lerobot (LeRobot v3.0, state only, a folder), robomimic (one HDF5 file; a build with --features robomimic and the HDF5 C library). The column mapping and the HDF5 layout are in the README (Export and import).\n\nExamples:\n  dexwarp export out/reproduce --format lerobot --robot human_hand --out out/dataset\n  dexwarp export out/aug/mug --format lerobot --only-passing --out out/mug_kept\n  dexwarp export out/mug.demo.json --format lerobot --fps 30 --out out/mug_lerobot\n  dexwarp export out/aug/mug --format robomimic --out out/mug.hdf5\n  dexwarp filter out/aug/mug --max-dc-mm 5 --out keep.csv && dexwarp export keep.csv --format lerobot --out out/mug_dc5"
 )]
 pub struct ExportArgs {
-    /// Folders (searched recursively for report.json) or demonstration files.
+    /// Folders (searched recursively for report.json), demonstration files, or lists
+    /// `dexwarp filter` wrote (KEEP.csv: exactly the trajectories it kept).
     #[arg(required = true, value_name = "DIR")]
     inputs: Vec<PathBuf>,
     /// Dataset format.
