@@ -28,6 +28,9 @@ def main(path, expected_path):
         check("env_args.env_name", env["env_name"], want["env_name"])
         check("env_args.type", env["type"], 2)
         check("env_args has env_kwargs", isinstance(env.get("env_kwargs"), dict), True)
+        check("data.attrs[actions_normalized]", bool(data.attrs["actions_normalized"]), True)
+        offset = data.attrs["action_offset"]
+        scale = data.attrs["action_scale"]
         demos = sorted(data.keys(), key=lambda k: int(k[5:]))
         check("demos", demos, [f"demo_{i}" for i in range(len(want["demos"]))])
         for name, exp in zip(demos, want["demos"]):
@@ -39,8 +42,16 @@ def main(path, expected_path):
                     ds = g[sub][key]
                     check(f"{name}/{sub}/{key} dtype", str(ds.dtype), "float32")
                     check(f"{name}/{sub}/{key}", ds[()].tolist(), rows)
-            for key in ("actions", "states", "rewards", "dones"):
+            for key in ("states", "rewards", "dones"):
                 check(f"{name}/{key}", g[key][()].tolist(), exp[key])
+            # The targets, and the actions scaled into [-1, 1] that scale back to them.
+            check(f"{name}/actions_abs", g["actions_abs"][()].tolist(), exp["actions"])
+            actions = g["actions"][()]
+            check(f"{name}/actions within [-1, 1]",
+                  bool((actions >= -1).all() and (actions <= 1).all()), True)
+            back = actions.astype("float64") * scale + offset
+            worst = float(abs(back - g["actions_abs"][()].astype("float64")).max())
+            check(f"{name}/actions scale back within 1e-6", worst < 1e-6, True)
             for key, value in exp["attrs"].items():
                 got = g.attrs.get(key)
                 got = got.item() if hasattr(got, "item") else got

@@ -57,6 +57,8 @@ pub struct ExportOptions {
     pub force: bool,
     /// Show a progress bar on a terminal.
     pub progress: bool,
+    /// robomimic: `actions` as absolute targets instead of scaled into [-1, 1].
+    pub absolute_actions: bool,
 }
 
 impl ExportOptions {
@@ -71,6 +73,7 @@ impl ExportOptions {
             data_file_mb: lerobot::DEFAULT_DATA_FILE_MB,
             force: false,
             progress: false,
+            absolute_actions: false,
         }
     }
 }
@@ -617,7 +620,7 @@ pub fn export_robomimic(options: &ExportOptions, limits: &Limits) -> Result<Expo
         let collected = collect(options, limits)?;
         let frames = collected.episodes.iter().map(|e| e.state.len()).sum();
         write_atomic_file(&options.out, options.force, |tmp| {
-            robomimic::write(tmp, &collected)
+            robomimic::write(tmp, &collected, options.absolute_actions)
         })?;
         Ok(Exported {
             episodes: collected.episodes.len(),

@@ -2,7 +2,9 @@
 //! ([`read`]), through the `hdf5-metno` binding of the HDF5 C library.
 //!
 //! Layout (robomimic's dataset structure, low-dimensional observations only):
-//! - `data` (group): attributes `total` (frames over all demos, int64) and `env_args` (a JSON
+//! - `data` (group): attributes `total` (frames over all demos, int64), `actions_normalized`
+//!   (bool), `action_offset` and `action_scale` (float64 `[7 + J]`, when normalized) and
+//!   `env_args` (a JSON
 //!   string: `env_name` `dexwarp/<robot>`, `type` 2, robomimic's type for environments it
 //!   does not build itself, and `env_kwargs` with the robot, fps, joint names and the layout
 //!   of `states`);
@@ -14,7 +16,13 @@
 //!   `failure_reasons` as a JSON list of strings), and the datasets
 //!   - `obs/<key>` and `next_obs/<key>` ([`OBS_KEYS`], float32 `[N, width]`; `next_obs` is
 //!     the next frame's, the last frame repeats its own),
-//!   - `actions` (float32 `[N, 7 + J]`, the next frame's hand state, as LeRobot's `action`),
+//!   - `actions` (float32 `[N, 7 + J]`): the next frame's hand state (as LeRobot's
+//!     `action`) scaled per dimension into [-1, 1], as robomimic's policies (a tanh output)
+//!     and its `get_dataset_info` expect: `actions = (target - action_offset) / action_scale`
+//!     with `action_offset` the middle and `action_scale` the half range of that dimension
+//!     over the whole file (1 for a dimension that does not vary). The targets themselves are
+//!     `actions_abs` (float32, metres and radians). With `--absolute-actions` (for users who
+//!     normalize themselves), `actions` holds the targets and neither is written;
 //!   - `states` (float32 `[N, 14 + J]`: object pose, wrist pose, joints),
 //!   - `rewards` (float64 `[N]`: 1 at the last frame of a trajectory whose physics verdict is
 //!     pass, else 0) and `dones` (int64 `[N]`: 1 at the last frame);
@@ -132,12 +140,61 @@ pub fn attr_name(column: &str) -> &str {
     column.strip_prefix("quality/").unwrap_or(column)
 }
 
+/// How `actions` are scaled: per dimension, `(target - offset) / scale`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ActionScaling {
+    pub offset: Vec<f64>,
+    pub scale: Vec<f64>,
+}
+
+impl ActionScaling {
+    /// Middle and half range of every dimension of `rows` (of width `width`); a dimension
+    /// that does not vary gets scale 1.
+    pub fn of<'a>(width: usize, rows: impl Iterator<Item = &'a [f32]>) -> ActionScaling {
+        let mut lo = vec![f64::INFINITY; width];
+        let mut hi = vec![f64::NEG_INFINITY; width];
+        for r in rows {
+            for (j, v) in r.iter().enumerate().take(width) {
+                lo[j] = lo[j].min(f64::from(*v));
+                hi[j] = hi[j].max(f64::from(*v));
+            }
+        }
+        let (offset, scale) = lo
+            .iter()
+            .zip(&hi)
+            .map(|(&l, &h)| {
+                if !(l.is_finite() && h.is_finite()) {
+                    return (0.0, 1.0);
+                }
+                let half = (h - l) / 2.0;
+                (l + half, if half > 0.0 { half } else { 1.0 })
+            })
+            .unzip();
+        ActionScaling { offset, scale }
+    }
+
+    /// `row` scaled into [-1, 1].
+    pub fn apply(&self, row: &[f32]) -> Vec<f32> {
+        row.iter()
+            .zip(self.offset.iter().zip(&self.scale))
+            .map(|(v, (o, s))| (((f64::from(*v) - o) / s) as f32).clamp(-1.0, 1.0))
+            .collect()
+    }
+}
+
+/// The action rows of `e`: the next frame's hand state, the last repeating its own.
+fn action_rows(e: &Episode) -> impl Iterator<Item = &Vec<f32>> {
+    let n = e.state.len();
+    (0..n).map(move |k| &e.state[(k + 1).min(n - 1)])
+}
+
 fn write_demo(
     path: &Path,
     data: &hdf5::Group,
     i: usize,
     e: &Episode,
     state_len: usize,
+    scaling: Option<&ActionScaling>,
 ) -> Result<()> {
     let g = data
         .create_group(&format!("demo_{i}"))
@@ -153,8 +210,14 @@ fn write_demo(
             write_2d(path, &og, name, width, rows)?;
         }
     }
-    let actions = (0..n).map(|k| &e.state[(k + 1).min(n - 1)]);
-    write_2d(path, &g, "actions", state_len, actions)?;
+    match scaling {
+        Some(s) => {
+            let scaled: Vec<Vec<f32>> = action_rows(e).map(|r| s.apply(r)).collect();
+            write_2d(path, &g, "actions", state_len, scaled.iter())?;
+            write_2d(path, &g, "actions_abs", state_len, action_rows(e))?;
+        }
+        None => write_2d(path, &g, "actions", state_len, action_rows(e))?,
+    }
     let states = (0..n).map(|k| {
         let mut r = e.object[k].clone();
         r.extend_from_slice(&e.state[k]);
@@ -221,15 +284,35 @@ pub fn env_args(c: &Collected) -> Value {
 
 /// Writes the dataset of `c` as the HDF5 file `path` (created; the caller renames it into
 /// place).
-pub fn write(path: &Path, c: &Collected) -> Result<()> {
+/// With `absolute_actions`, `actions` are the targets themselves (see the module docs).
+pub fn write(path: &Path, c: &Collected, absolute_actions: bool) -> Result<()> {
     let state_len = 7 + c.joint_names.len();
     let file = hdf5::File::create(path).map_err(|e| h5_err(path, e))?;
     let data = file.create_group("data").map_err(|e| h5_err(path, e))?;
     let total: usize = c.episodes.iter().map(|e| e.state.len()).sum();
+    let scaling = (!absolute_actions).then(|| {
+        ActionScaling::of(
+            state_len,
+            c.episodes
+                .iter()
+                .flat_map(action_rows)
+                .map(|r| r.as_slice()),
+        )
+    });
     for (i, e) in c.episodes.iter().enumerate() {
-        write_demo(path, &data, i, e, state_len)?;
+        write_demo(path, &data, i, e, state_len, scaling.as_ref())?;
     }
     scalar_attr(path, &data, "total", total as i64)?;
+    scalar_attr(path, &data, "actions_normalized", scaling.is_some())?;
+    if let Some(s) = &scaling {
+        for (name, values) in [("action_offset", &s.offset), ("action_scale", &s.scale)] {
+            data.new_attr::<f64>()
+                .shape(values.len())
+                .create(name)
+                .and_then(|a| a.write_raw(&values[..]))
+                .map_err(|e| h5_err(path, format!("data@{name}: {e}")))?;
+        }
+    }
     str_attr(path, &data, "env_args", &env_args(c).to_string())?;
     let mask = file.create_group("mask").map_err(|e| h5_err(path, e))?;
     for (key, names) in masks(&c.episodes) {
@@ -269,6 +352,8 @@ pub struct DemoGroup {
     pub obs: BTreeMap<String, Vec<Vec<f32>>>,
     pub next_obs: BTreeMap<String, Vec<Vec<f32>>>,
     pub actions: Vec<Vec<f32>>,
+    /// The absolute targets when `actions` are normalized.
+    pub actions_abs: Option<Vec<Vec<f32>>>,
     pub states: Vec<Vec<f32>>,
     pub rewards: Vec<f64>,
     pub dones: Vec<i64>,
@@ -278,6 +363,8 @@ pub struct DemoGroup {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Dataset {
     pub total: i64,
+    /// How `actions` were scaled into [-1, 1] (`None`: absolute actions).
+    pub action_scaling: Option<ActionScaling>,
     pub env_args: Value,
     /// Demos in robomimic's order (by the number after `demo_`).
     pub demos: Vec<DemoGroup>,
@@ -305,6 +392,10 @@ fn read_attrs(path: &Path, g: &hdf5::Group) -> Result<BTreeMap<String, Attr>> {
     for name in g.attr_names().map_err(|e| bad(path, g.name(), e))? {
         let field = format!("{}@{name}", g.name());
         let a = g.attr(&name).map_err(|e| bad(path, &field, e))?;
+        if !a.is_scalar() {
+            // Vectors (data@action_offset, data@action_scale) are read by name.
+            continue;
+        }
         let t = a
             .dtype()
             .and_then(|t| t.to_descriptor())
@@ -353,6 +444,11 @@ pub fn read(path: &Path) -> Result<Dataset> {
             name: name.clone(),
             attrs: read_attrs(path, &g)?,
             actions: read_2d(path, &g, "actions")?,
+            actions_abs: g
+                .dataset("actions_abs")
+                .is_ok()
+                .then(|| read_2d(path, &g, "actions_abs"))
+                .transpose()?,
             states: read_2d(path, &g, "states")?,
             ..DemoGroup::default()
         };
@@ -387,8 +483,21 @@ pub fn read(path: &Path) -> Result<Dataset> {
             masks.insert(key, names.iter().map(|n| n.as_str().to_string()).collect());
         }
     }
+    let vector = |name: &str| -> Result<Vec<f64>> {
+        data.attr(name)
+            .and_then(|a| a.read_raw())
+            .map_err(|e| bad(path, format!("data@{name}"), e))
+    };
+    let action_scaling = match attrs.get("actions_normalized") {
+        Some(Attr::Bool(true)) => Some(ActionScaling {
+            offset: vector("action_offset")?,
+            scale: vector("action_scale")?,
+        }),
+        _ => None,
+    };
     Ok(Dataset {
         total,
+        action_scaling,
         env_args,
         demos,
         masks,

@@ -599,6 +599,21 @@ fn robomimic_export_reads_back_every_frame_attribute_and_mask() {
     assert_eq!(ds.env_args["env_kwargs"]["fps"], 30);
     assert_eq!(ds.env_args["env_kwargs"]["joint_names"][0], "finger_joint1");
     assert_eq!(ds.demos.len(), 2);
+    let scaling = ds
+        .action_scaling
+        .clone()
+        .expect("actions are normalized by default");
+    // Every dimension that varies reaches both ends of [-1, 1] somewhere.
+    for (j, s) in scaling.scale.iter().enumerate() {
+        let column = ds
+            .demos
+            .iter()
+            .flat_map(|g| g.actions.iter().map(move |a| a[j]));
+        let (lo, hi) = column.fold((f32::MAX, f32::MIN), |(l, h), v| (l.min(v), h.max(v)));
+        if *s != 1.0 {
+            assert!(lo == -1.0 && hi == 1.0, "action {j}: [{lo}, {hi}]");
+        }
+    }
 
     let f32s = |v: Vec<f64>| -> Vec<f32> { v.into_iter().map(|x| x as f32).collect() };
     for (e, (d, r)) in demos.iter().zip(&reports).enumerate() {
@@ -617,7 +632,24 @@ fn robomimic_export_reads_back_every_frame_attribute_and_mask() {
                 assert_eq!(obs["object_pos"][i], ob[0..3], "demo {e} frame {i}");
                 assert_eq!(obs["object_quat"][i], ob[3..7], "demo {e} frame {i}");
             }
-            assert_eq!(g.actions[i], f32s(state_of(d, next)), "demo {e} frame {i}");
+            // The absolute target, and the action scaled into [-1, 1] that scales back to it.
+            let target = f32s(state_of(d, next));
+            assert_eq!(
+                g.actions_abs.as_ref().unwrap()[i],
+                target,
+                "demo {e} frame {i}"
+            );
+            for (j, (a, t)) in g.actions[i].iter().zip(&target).enumerate() {
+                assert!(
+                    (-1.0..=1.0).contains(a),
+                    "demo {e} frame {i} action {j}: {a}"
+                );
+                let back = f64::from(*a) * scaling.scale[j] + scaling.offset[j];
+                assert!(
+                    (back - f64::from(*t)).abs() < 1e-6,
+                    "demo {e} frame {i} action {j}: {back} vs {t}"
+                );
+            }
             let mut state = f32s(object_of(d, i));
             state.extend(f32s(state_of(d, i)));
             assert_eq!(g.states[i], state, "demo {e} frame {i}");
@@ -730,6 +762,49 @@ fn robomimic_export_reads_back_every_frame_attribute_and_mask() {
 /// `.ci/run` makes one) on the file, against values taken from the demonstrations and
 /// reports (the masks are the ones the Rust test checked).
 #[cfg(feature = "robomimic")]
+/// `--absolute-actions`: the targets themselves under `actions`, no scaling written; refused
+/// with LeRobot, whose action is always absolute.
+#[cfg(feature = "robomimic")]
+#[test]
+fn robomimic_absolute_actions_are_the_targets() {
+    use dexwarp::export::robomimic;
+    let dir = tempfile::tempdir().unwrap();
+    let runs = small_batch(dir.path());
+    let out = dir.path().join("abs.hdf5");
+    let args = |format: &str, out: &Path| {
+        dexwarp(&[
+            "export",
+            s(&runs),
+            "--format",
+            format,
+            "--absolute-actions",
+            "--out",
+            s(out),
+        ])
+    };
+    let o = args("robomimic", &out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let ds = robomimic::read(&out).unwrap();
+    assert!(ds.action_scaling.is_none());
+    let d = Demo::load(&runs.join("a/box_lift.demo.json"), &Limits::default()).unwrap();
+    let g = &ds.demos[0];
+    assert!(g.actions_abs.is_none());
+    let n = d.frames.len();
+    for i in 0..n {
+        let want: Vec<f32> = state_of(&d, (i + 1).min(n - 1))
+            .into_iter()
+            .map(|x| x as f32)
+            .collect();
+        assert_eq!(g.actions[i], want, "frame {i}");
+    }
+    let o = args("lerobot", &dir.path().join("ds"));
+    assert!(
+        !o.status.success() && stderr(&o).contains("applies to --format robomimic"),
+        "{}",
+        stderr(&o)
+    );
+}
+
 fn h5py_readback(
     out: &Path,
     demos: &[Demo],

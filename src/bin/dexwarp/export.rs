@@ -50,6 +50,10 @@ pub struct ExportArgs {
     /// Replace OUT if it exists.
     #[arg(long)]
     force: bool,
+    /// robomimic: write `actions` as the absolute targets [m, rad] instead of scaled into
+    /// [-1, 1] (for training code that normalizes itself).
+    #[arg(long)]
+    absolute_actions: bool,
 }
 
 pub fn run(args: ExportArgs, limits: Limits) -> Result<()> {
@@ -63,7 +67,13 @@ pub fn run(args: ExportArgs, limits: Limits) -> Result<()> {
         robot,
         data_file_mb,
         force,
+        absolute_actions,
     } = args;
+    if absolute_actions && matches!(format, ExportFormat::Lerobot) {
+        anyhow::bail!(
+            "--absolute-actions applies to --format robomimic; LeRobot's action is always the absolute target (its training normalizes with meta/stats.json)"
+        );
+    }
     let mut options = dexwarp::export::ExportOptions::new(inputs, out.clone());
     options.only_passing = only_passing;
     options.only_robust = only_robust;
@@ -71,6 +81,7 @@ pub fn run(args: ExportArgs, limits: Limits) -> Result<()> {
     options.robot = robot;
     options.data_file_mb = data_file_mb.max(1);
     options.force = force;
+    options.absolute_actions = absolute_actions;
     options.progress = true;
     let t = std::time::Instant::now();
     let done = match format {
