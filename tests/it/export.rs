@@ -758,10 +758,6 @@ fn robomimic_export_reads_back_every_frame_attribute_and_mask() {
     assert_eq!(robomimic::read(&out).unwrap(), ds);
 }
 
-/// Runs `scripts/export/readback_robomimic.py` with `$DEXWARP_PYTHON` (a Python with h5py;
-/// `.ci/run` makes one) on the file, against values taken from the demonstrations and
-/// reports (the masks are the ones the Rust test checked).
-#[cfg(feature = "robomimic")]
 /// `--absolute-actions`: the targets themselves under `actions`, no scaling written; refused
 /// with LeRobot, whose action is always absolute.
 #[cfg(feature = "robomimic")]
@@ -805,6 +801,10 @@ fn robomimic_absolute_actions_are_the_targets() {
     );
 }
 
+/// Runs `scripts/export/readback_robomimic.py` with `$DEXWARP_PYTHON` (a Python with h5py;
+/// `.ci/run` makes one) on the file, against values taken from the demonstrations and
+/// reports (the masks are the ones the Rust test checked).
+#[cfg(feature = "robomimic")]
 fn h5py_readback(
     out: &Path,
     demos: &[Demo],
