@@ -10,7 +10,11 @@
 //! - `meta/episodes/chunk-000/file-000.parquet`: one row per episode with LeRobot's columns
 //!   (`episode_index`, `tasks`, `length`, `data/chunk_index`, `data/file_index`,
 //!   `dataset_from_index`, `dataset_to_index`, `meta/episodes/chunk_index`,
-//!   `meta/episodes/file_index`) and the `quality/...` columns of [`super::Quality`];
+//!   `meta/episodes/file_index`), the `quality/...` columns of [`super::Quality`], and
+//!   LeRobot's per-episode statistics `stats/<feature>/<stat>` for every feature of
+//!   `meta/stats.json` (lists of float64, `count` a list of one int64), which LeRobot's
+//!   episode tools (`delete_episodes`, `split_dataset`, `merge_datasets`) recombine into the
+//!   `meta/stats.json` of what they write;
 //! - `data/chunk-CCC/file-FFF.parquet`: one row per frame: `observation.state`,
 //!   `observation.environment_state`, `action` (fixed-size lists of float32), `timestamp`
 //!   (float32, `frame_index / fps`), `frame_index`, `episode_index`, `index` (the frame's
@@ -20,15 +24,14 @@
 //! pass `data_files_size_in_mb` (an episode is never split; we count the uncompressed bytes
 //! of its rows, LeRobot the written file's size), then the next file starts; a chunk folder
 //! holds at most `chunks_size` files. The episodes table is one file (it is small: one row
-//! per episode). LeRobot's per-episode `stats/...` columns are not written (its loader drops
-//! them); `meta/stats.json` has the dataset's statistics.
+//! per episode).
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use arrow_array::builder::{ListBuilder, StringBuilder};
+use arrow_array::builder::{Float64Builder, Int64Builder, ListBuilder, StringBuilder};
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float32Type, Float64Type, Int32Type, Int64Type};
 use arrow_array::{
@@ -198,10 +201,13 @@ pub fn write(root: &Path, c: &Collected, data_file_mb: u64) -> Result<usize> {
         write_parquet(&path, &batch)?;
     }
 
-    // Episodes table.
+    // Episodes table, with each episode's statistics.
     let path = root.join(EPISODES_FILE);
-    let batch =
-        episodes_batch(eps, &files, &from, &tasks, &task_of).map_err(|e| arrow_err(&path, e))?;
+    let per_episode: Vec<Value> = (0..eps.len())
+        .map(|i| features_stats(&episode_features(c, i, &task_of, from[i])))
+        .collect();
+    let batch = episodes_batch(eps, &files, &from, &tasks, &task_of, &per_episode)
+        .map_err(|e| arrow_err(&path, e))?;
     write_parquet(&path, &batch)?;
 
     // Tasks table, as pandas writes a DataFrame indexed by `task`.
@@ -384,6 +390,7 @@ fn episodes_batch(
     from: &[usize],
     tasks: &[String],
     task_of: &[i64],
+    stats: &[Value],
 ) -> std::result::Result<RecordBatch, String> {
     let n = eps.len();
     let int = |f: &dyn Fn(usize) -> i64| -> ArrayRef {
@@ -483,45 +490,99 @@ fn episodes_batch(
         let a = Float64Array::from_iter(eps.iter().map(|e| get(&e.quality)));
         push(name, DataType::Float64, true, Arc::new(a));
     }
+    for feature in STATS_FEATURES {
+        for stat in super::stats::STATS {
+            let values = stats.iter().map(|s| &s[feature][stat]);
+            let (dt, a) = stat_column(stat == "count", values);
+            push(&format!("stats/{feature}/{stat}"), dt, false, a);
+        }
+    }
     RecordBatch::try_new(Arc::new(Schema::new(fields)), cols).map_err(|e| e.to_string())
 }
 
-fn dataset_stats(c: &Collected, task_of: &[i64]) -> Value {
-    let mut state = Vec::new();
-    let mut env = Vec::new();
-    let mut action = Vec::new();
-    let mut scalars: [Vec<[f64; 1]>; 5] = Default::default();
-    let mut index = 0usize;
-    for (i, e) in c.episodes.iter().enumerate() {
-        for k in 0..e.state.len() {
-            let f = |r: &[f32]| r.iter().map(|&v| v as f64).collect::<Vec<f64>>();
-            state.push(f(&e.state[k]));
-            env.push(f(&e.object[k]));
-            action.push(f(action_row(e, k)));
-            scalars[0].push([(k as f64 / c.fps as f64) as f32 as f64]);
-            scalars[1].push([k as f64]);
-            scalars[2].push([i as f64]);
-            scalars[3].push([index as f64]);
-            scalars[4].push([task_of[i] as f64]);
-            index += 1;
+/// One `stats/<feature>/<stat>` column: a list per episode, of int64 for `count`, else of
+/// float64.
+fn stat_column<'a>(count: bool, values: impl Iterator<Item = &'a Value>) -> (DataType, ArrayRef) {
+    let list = |item: DataType| DataType::List(Arc::new(Field::new("item", item, true)));
+    let numbers = |v: &Value| v.as_array().cloned().unwrap_or_default();
+    if count {
+        let mut b = ListBuilder::new(Int64Builder::new());
+        for v in values {
+            for x in numbers(v) {
+                b.values().append_value(x.as_i64().unwrap_or(0));
+            }
+            b.append(true);
         }
+        (list(DataType::Int64), Arc::new(b.finish()))
+    } else {
+        let mut b = ListBuilder::new(Float64Builder::new());
+        for v in values {
+            for x in numbers(v) {
+                b.values().append_value(x.as_f64().unwrap_or(f64::NAN));
+            }
+            b.append(true);
+        }
+        (list(DataType::Float64), Arc::new(b.finish()))
     }
-    let of = |rows: &[Vec<f64>]| {
-        super::stats::feature_stats(&rows.iter().map(|r| &r[..]).collect::<Vec<_>>())
-    };
-    let of1 = |rows: &[[f64; 1]]| {
-        super::stats::feature_stats(&rows.iter().map(|r| &r[..]).collect::<Vec<_>>())
-    };
-    json!({
-        STATE: of(&state),
-        ENV_STATE: of(&env),
-        ACTION: of(&action),
-        "timestamp": of1(&scalars[0]),
-        "frame_index": of1(&scalars[1]),
-        "episode_index": of1(&scalars[2]),
-        "index": of1(&scalars[3]),
-        "task_index": of1(&scalars[4]),
-    })
+}
+
+/// The features of `meta/stats.json` and of the per-episode `stats/...` columns, in order.
+pub const STATS_FEATURES: [&str; 8] = [
+    STATE,
+    ENV_STATE,
+    ACTION,
+    "timestamp",
+    "frame_index",
+    "episode_index",
+    "index",
+    "task_index",
+];
+
+/// The rows of every feature of [`STATS_FEATURES`] over episode `i` (its first frame is
+/// `first_index` over the dataset), as LeRobot computes statistics over them.
+fn episode_features(
+    c: &Collected,
+    i: usize,
+    task_of: &[i64],
+    first_index: usize,
+) -> Vec<Vec<Vec<f64>>> {
+    let e = &c.episodes[i];
+    let widen = |r: &[f32]| r.iter().map(|&v| f64::from(v)).collect::<Vec<f64>>();
+    let n = e.state.len();
+    vec![
+        e.state.iter().map(|r| widen(r)).collect(),
+        e.object.iter().map(|r| widen(r)).collect(),
+        (0..n).map(|k| widen(action_row(e, k))).collect(),
+        (0..n)
+            .map(|k| vec![f64::from((k as f64 / c.fps as f64) as f32)])
+            .collect(),
+        (0..n).map(|k| vec![k as f64]).collect(),
+        vec![vec![i as f64]; n],
+        (0..n).map(|k| vec![(first_index + k) as f64]).collect(),
+        vec![vec![task_of[i] as f64]; n],
+    ]
+}
+
+/// `{feature: stats}` of rows given per feature of [`STATS_FEATURES`].
+fn features_stats(rows: &[Vec<Vec<f64>>]) -> Value {
+    let mut out = serde_json::Map::new();
+    for (feature, rows) in STATS_FEATURES.iter().zip(rows) {
+        let rows: Vec<&[f64]> = rows.iter().map(|r| &r[..]).collect();
+        out.insert((*feature).into(), super::stats::feature_stats(&rows));
+    }
+    Value::Object(out)
+}
+
+fn dataset_stats(c: &Collected, task_of: &[i64]) -> Value {
+    let mut all: Vec<Vec<Vec<f64>>> = vec![Vec::new(); STATS_FEATURES.len()];
+    let mut index = 0;
+    for i in 0..c.episodes.len() {
+        for (into, rows) in all.iter_mut().zip(episode_features(c, i, task_of, index)) {
+            into.extend(rows);
+        }
+        index += c.episodes[i].state.len();
+    }
+    features_stats(&all)
 }
 
 /// One column of a parquet table as read back.
@@ -588,6 +649,9 @@ fn read_column(a: &dyn Array) -> Option<Column> {
     let floats = |a: &dyn Array| -> Option<Vec<f64>> {
         if let Some(p) = a.as_primitive_opt::<Float32Type>() {
             return Some(p.iter().map(|v| v.unwrap_or(f32::NAN) as f64).collect());
+        }
+        if let Some(p) = a.as_primitive_opt::<Int64Type>() {
+            return Some(p.iter().map(|v| v.unwrap_or(0) as f64).collect());
         }
         a.as_primitive_opt::<Float64Type>()
             .map(|p| p.iter().map(|v| v.unwrap_or(f64::NAN)).collect())

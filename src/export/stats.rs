@@ -20,6 +20,11 @@ pub const QUANTILES: [(f64, &str); 5] = [
     (0.99, "q99"),
 ];
 
+/// The statistics of a feature, in LeRobot's order.
+pub const STATS: [&str; 10] = [
+    "min", "max", "mean", "std", "count", "q01", "q10", "q50", "q90", "q99",
+];
+
 /// Statistics of `rows` (every row of the same length `n`), as a JSON object.
 pub fn feature_stats(rows: &[&[f64]]) -> Value {
     let n = rows.first().map_or(0, |r| r.len());

@@ -48,6 +48,57 @@ fn string(t: &lerobot::Table, name: &str, row: usize) -> String {
 }
 
 /// Two warps of the gripper fixture (contact IK and baseline), with physics, in `dir/runs`.
+/// LeRobot's per-episode `stats/<feature>/<stat>` columns: present for every feature of
+/// `meta/stats.json`, and recombined as LeRobot's `aggregate_stats` does (counts summed,
+/// extremes of extremes, count-weighted means, pooled variance) they give its statistics.
+fn per_episode_stats_recombine_to_the_dataset_stats(out: &Path, eps: &lerobot::Table) {
+    let stats: Value =
+        serde_json::from_slice(&std::fs::read(out.join("meta/stats.json")).unwrap()).unwrap();
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
+    for feature in lerobot::STATS_FEATURES {
+        let col = |stat: &str| {
+            eps.vectors(out, &format!("stats/{feature}/{stat}"))
+                .unwrap()
+                .to_vec()
+        };
+        let (min, max, mean, std, count) = (
+            col("min"),
+            col("max"),
+            col("mean"),
+            col("std"),
+            col("count"),
+        );
+        for q in ["q01", "q10", "q50", "q90", "q99"] {
+            assert_eq!(col(q).len(), eps.rows, "{feature} {q}");
+        }
+        let want = &stats[feature];
+        let n: f64 = count.iter().map(|c| c[0]).sum();
+        assert_eq!(want["count"][0].as_f64().unwrap(), n, "{feature}");
+        for j in 0..mean[0].len() {
+            let total_mean = (0..eps.rows).map(|e| count[e][0] * mean[e][j]).sum::<f64>() / n;
+            let var = (0..eps.rows)
+                .map(|e| count[e][0] * (std[e][j].powi(2) + (mean[e][j] - total_mean).powi(2)))
+                .sum::<f64>()
+                / n;
+            let lo = (0..eps.rows)
+                .map(|e| min[e][j])
+                .fold(f64::INFINITY, f64::min);
+            let hi = (0..eps.rows)
+                .map(|e| max[e][j])
+                .fold(f64::NEG_INFINITY, f64::max);
+            let got = |k: &str| want[k][j].as_f64().unwrap();
+            assert!(close(got("mean"), total_mean), "{feature}[{j}] mean");
+            assert!(
+                close(got("std"), var.sqrt()),
+                "{feature}[{j}] std {} vs {}",
+                got("std"),
+                var.sqrt()
+            );
+            assert_eq!((got("min"), got("max")), (lo, hi), "{feature}[{j}]");
+        }
+    }
+}
+
 fn small_batch(dir: &Path) -> std::path::PathBuf {
     let config = gripper_fixture(dir);
     let runs = dir.join("runs");
@@ -146,6 +197,7 @@ fn lerobot_export_reads_back_every_frame_and_quality_column() {
     // Every quality column, as in the reports.
     let eps = &ds.episodes;
     assert_eq!(eps.rows, 2);
+    per_episode_stats_recombine_to_the_dataset_stats(&out, eps);
     let from = eps.ints(&out, "dataset_from_index").unwrap();
     let to = eps.ints(&out, "dataset_to_index").unwrap();
     assert_eq!(
