@@ -522,6 +522,11 @@ fn load_one(
         return Err(LoadError::Skip("no report, so no physics pass".into()));
     }
     if !f.demo.is_file() {
+        if f.report.is_some() && listed_sha.is_none() {
+            return Err(LoadError::Skip(
+                "the run kept no demonstration (reproduce keeps those of contact IK at 3.5 mm and the baseline; reproduce --all-demos keeps every run's)".into(),
+            ));
+        }
         return Err(LoadError::Skip(format!(
             "no demonstration {} beside the report",
             f.demo.display()

@@ -62,6 +62,15 @@ pub fn write_run(dir: &Path, run: &WarpRun) -> Result<Written> {
     })
 }
 
+/// [`write_run`] without the demonstration: `DIR/frames.csv` and `DIR/report.json` as one
+/// set (the report's figures hold; the warped trajectory is not kept).
+pub fn write_run_without_demo(dir: &Path, run: &WarpRun) -> Result<()> {
+    let [_, frames_name, _] = run_file_names(&run.demo.name);
+    let frames_bytes = crate::model::frames::csv_bytes(&dir.join(&frames_name), &run.frames)?;
+    let mut report = run.report.clone();
+    commit_set(dir, vec![(frames_name, frames_bytes)], &mut report)
+}
+
 /// Refuses an output folder where a file of the run would replace one of its inputs (a
 /// config `name` equal to the demonstration's file stem, with `--out` on its folder).
 pub fn check_not_inputs(dir: &Path, names: &[String], inputs: &[&Path]) -> Result<()> {

@@ -204,12 +204,15 @@ fn line(what: &str, done: u64, len: u64, elapsed: Duration, message: &str) -> St
     let mut text = format!("{what}: {done}/{len} ({share:.0} %) in {}", clock(secs));
     if done > 0 && secs > 0.0 {
         let rate = done as f64 / secs;
-        let left = len.saturating_sub(done) as f64 / rate;
-        text.push_str(&format!(
-            ", {:.2} per min, about {} left",
-            rate * 60.0,
-            clock(left)
-        ));
+        if rate >= 1.0 {
+            text.push_str(&format!(", {rate:.1} per s"));
+        } else {
+            text.push_str(&format!(", {:.2} per min", rate * 60.0));
+        }
+        if done < len {
+            let left = (len - done) as f64 / rate;
+            text.push_str(&format!(", about {} left", clock(left)));
+        }
     }
     if !message.is_empty() {
         text.push_str(&format!(", last: {message}"));
@@ -259,6 +262,10 @@ mod tests {
             "reproduce: 12/48 (25 %) in 2 min 05 s, 5.76 per min, about 6 min 15 s left, last: mug_pass_wall lm_3.5mm"
         );
         assert_eq!(line("x", 0, 0, Duration::ZERO, ""), "x: 0/0 (100 %) in 0 s");
+        assert_eq!(
+            line("x", 30, 30, Duration::from_secs(10), ""),
+            "x: 30/30 (100 %) in 10 s, 3.0 per s"
+        );
         assert_eq!(clock(3725.0), "1 h 02 min");
     }
 

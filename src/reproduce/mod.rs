@@ -58,6 +58,11 @@ pub struct ReproduceOptions {
     pub physics: PhysicsOptions,
     pub limits: Limits,
     pub progress: bool,
+    /// Write every run's warped demonstration. By default only the compared runs (contact
+    /// IK with LM at 3.5 mm and the baseline: what a user exports and the player shows) keep
+    /// theirs; the other runs, which only feed the tables, keep their report and frames
+    /// (a full run: 1.3 GB with every demonstration).
+    pub all_demos: bool,
 }
 
 /// How one run recovers the hand.
@@ -328,7 +333,11 @@ fn run_one(config: &Path, variant: &Variant, options: &ReproduceOptions) -> RunR
             report.metrics.d_c_mm.uncorrupted = Some(crate::metrics::d_c_mm(&dc));
         }
         let run = pipeline::WarpRun { report, ..run };
-        crate::output::write_run(&dir, &run)?;
+        if variant.compared() || options.all_demos {
+            crate::output::write_run(&dir, &run)?;
+        } else {
+            crate::output::write_run_without_demo(&dir, &run)?;
+        }
         Ok(run.report)
     })();
     let report = match result {

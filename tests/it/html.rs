@@ -52,6 +52,7 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
         physics: dexwarp::pipeline::PhysicsOptions::default(),
         limits: dexwarp::Limits::default(),
         progress: false,
+        all_demos: false,
     })
     .unwrap();
     // Three LM thresholds on each objective, Adam and the baseline for the one config.
@@ -69,6 +70,15 @@ fn reproduce_writes_tables_and_a_page_that_renders() {
             r.report.error
         );
         assert!(r.dir.join("report.json").is_file() && r.dir.join("frames.csv").is_file());
+        // The warped demonstration is kept for the compared runs only (what export and the
+        // player use); the others feed the tables from their reports.
+        let compared = ["lm_3.5mm", "baseline"].contains(&r.variant.name.as_str());
+        assert_eq!(
+            r.dir.join("box_lift.demo.json").is_file(),
+            compared,
+            "{}",
+            r.variant.name
+        );
     }
     for t in [
         "table1_dwo",

@@ -88,8 +88,25 @@ pub fn run(args: ExportArgs, limits: Limits) -> Result<()> {
         ExportFormat::Lerobot => dexwarp::export::export_lerobot(&options, &limits)?,
         ExportFormat::Robomimic => dexwarp::export::export_robomimic(&options, &limits)?,
     };
+    // One line per trajectory, or per reason when a reason repeats (a reproduce folder's
+    // table-only runs).
+    let mut reasons: Vec<(&str, Vec<&std::path::Path>)> = Vec::new();
     for (p, why) in &done.skipped {
-        eprintln!("skipped {}: {why}", p.display());
+        match reasons.iter_mut().find(|(w, _)| *w == why.as_str()) {
+            Some((_, paths)) => paths.push(p),
+            None => reasons.push((why, vec![p])),
+        }
+    }
+    for (why, paths) in reasons {
+        match paths.as_slice() {
+            [one] => eprintln!("skipped {}: {why}", one.display()),
+            [first, ..] => eprintln!(
+                "skipped {} trajectories ({}, ...): {why}",
+                paths.len(),
+                first.display()
+            ),
+            [] => {}
+        }
     }
     eprintln!(
         "wrote {}: {} episodes, {} frames, {} data file(s), {} skipped, in {:.1} s",

@@ -29,6 +29,10 @@ pub struct ReproduceArgs {
     /// this binary was built from).
     #[arg(long, value_name = "DIR")]
     root: Option<PathBuf>,
+    /// Keep every run's warped demonstration (by default only those of contact IK at 3.5 mm
+    /// and the baseline, which export and the player use; the rest only feed the tables).
+    #[arg(long)]
+    all_demos: bool,
     /// The ensemble verdict of the baseline comparison's runs (contact IK at 3.5 mm and the
     /// baseline); the other runs of the tables replay once.
     #[command(flatten)]
@@ -41,6 +45,7 @@ pub fn run(args: ReproduceArgs, limits: Limits) -> Result<()> {
         quick,
         workers,
         root,
+        all_demos,
         ensemble,
     } = args;
     let root = match root {
@@ -59,6 +64,7 @@ pub fn run(args: ReproduceArgs, limits: Limits) -> Result<()> {
         physics: ensemble.options(),
         limits,
         progress: true,
+        all_demos,
     })?;
     eprint!(
         "{}",
