@@ -37,6 +37,9 @@ pub struct KeypointOptions {
     pub hull_fallback: bool,
     /// A scene to name instead of the inferred table.
     pub scene: Option<PathBuf>,
+    /// Refine the hand inside the contact segment with the warp's contact IK on the recorded
+    /// correspondences (default on; see [`refine_contacts`]).
+    pub refine: bool,
     pub params: keypoints::Params,
 }
 
@@ -59,6 +62,8 @@ pub struct KeypointImport {
     /// How far the object's recorded rest poses were moved to where it settles on the
     /// supports (see [`settle_rest_poses`]); `None` without supports.
     pub rest_correction: Option<RestCorrection>,
+    /// What the contact refinement did (`None` when it was not asked for).
+    pub refinement: Option<Refinement>,
     /// First and last frame where the recorded hand touches the object.
     pub touch_frames: Option<[usize; 2]>,
     /// Warnings about the recording (object moving before the hand touches it, ...).
@@ -164,6 +169,65 @@ fn moved_before_touch(rec: &Recording, touch: Option<[usize; 2]>) -> Option<[usi
         .filter(|&t| (rec.object[t].translation.vector - start).norm() > 0.005)
         .collect();
     Some([*moved.first()?, *moved.last()?])
+}
+
+/// What the contact refinement did: D_C [mm] before and after, and the share of the contact
+/// segment's frames where the IK reached its threshold.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Refinement {
+    pub d_c_before_mm: f64,
+    pub d_c_mm: f64,
+    pub ik_converged_fraction: Option<f64>,
+    pub time_s: f64,
+}
+
+/// The retargeted hand fits the recorded keypoints and the correspondences together, and a
+/// hand of another size cannot meet both: its fingertips end centimetres from the recorded
+/// contacts. Inside the contact segment the warp's contact IK (non-penetrating objective, its
+/// default threshold) then solves the hand on the correspondences alone, starting from the
+/// retargeted hand, as an identity warp would: no waypoints, the recorded timing kept
+/// (`retime: speed`), no physics. Outside contact the hand stays as retargeted.
+pub fn refine_contacts(demo: Demo, scene: &Path, limits: &Limits) -> Result<(Demo, Refinement)> {
+    let clock = Instant::now();
+    let out = demo.source.clone();
+    let scene = std::path::absolute(scene).map_err(|e| Error::read(scene, e))?;
+    let config = crate::model::config::WarpConfig {
+        name: demo.name.clone(),
+        description: None,
+        demo: out.clone(),
+        scene,
+        waypoints: Vec::new(),
+        barriers: Vec::new(),
+        start: None,
+        end: None,
+        params: crate::model::config::WarpParams {
+            retime: crate::model::RetimeMode::Speed,
+            ..Default::default()
+        },
+        source: out.clone(),
+    };
+    let inputs = crate::pipeline::Inputs::new(config, demo, limits)?;
+    let run = crate::pipeline::warp(
+        &inputs,
+        &crate::pipeline::Options::new(crate::pipeline::HandMethod::Contact)
+            .physics(None)
+            .limits(*limits),
+    )?;
+    let mut refined = run.demo;
+    refined.timewarp = None;
+    refined.source = out.clone();
+    refined.save(&out)?;
+    let back = Demo::load(&out, limits)?;
+    let r = &run.report;
+    Ok((
+        back,
+        Refinement {
+            d_c_before_mm: r.metrics.d_c_mm.original,
+            d_c_mm: r.metrics.d_c_mm.warped,
+            ik_converged_fraction: r.ik.as_ref().map(|ik| ik.converged_fraction),
+            time_s: clock.elapsed().as_secs_f64(),
+        },
+    ))
 }
 
 /// How the recorded rest poses of the object were moved onto the supports.
@@ -406,14 +470,6 @@ pub fn import_keypoints(
         &ik,
         &options.params,
     )?;
-    let mut poses = robot.new_link_poses();
-    let penetration_mm: Vec<f64> = (0..rec.len())
-        .map(|t| {
-            robot.forward_kinematics(&hand.wrists[t], &hand.joints[t], &mut poses);
-            crate::synth::proximity::penetration(&robot, &poses, &geometry, &rec.object[t]).depth_m
-                * 1e3
-        })
-        .collect();
     let mut warnings = Vec::new();
     let volume_ratio = crate::geometry::hull::object_shape(&mesh, &Default::default())
         .ok()
@@ -470,6 +526,22 @@ pub fn import_keypoints(
         Some(scene_path.clone()),
         limits,
     )?;
+    let (demo, refinement) = if options.refine {
+        let (d, r) = refine_contacts(demo, &scene_path, limits)?;
+        (d, Some(r))
+    } else {
+        (demo, None)
+    };
+    let mut link_poses = robot.new_link_poses();
+    let penetration_mm: Vec<f64> = demo
+        .frames
+        .iter()
+        .map(|f| {
+            robot.forward_kinematics(&f.wrist, &f.joints, &mut link_poses);
+            crate::synth::proximity::penetration(&robot, &link_poses, &geometry, &f.object).depth_m
+                * 1e3
+        })
+        .collect();
     let r = &hand.residuals;
     let import = KeypointImport {
         demo,
@@ -481,6 +553,7 @@ pub fn import_keypoints(
         scene: scene_path,
         table_top_z_m: table_top,
         rest_correction,
+        refinement,
         touch_frames: hand.touch,
         warnings,
         object_volume_ratio: volume_ratio,

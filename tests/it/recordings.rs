@@ -102,6 +102,17 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_the_han
         deepest <= 2.0,
         "the cleaned hand is {deepest} mm in the object"
     );
+    // The contact refinement puts the fingertips on the recorded contacts: the retargeted
+    // hand, a fifth smaller than the person's, ends centimetres from them.
+    let refined = &import["refinement"];
+    let (before, after) = (
+        refined["d_c_before_mm"].as_f64().unwrap(),
+        refined["d_c_mm"].as_f64().unwrap(),
+    );
+    assert!(
+        after <= 5.0 && after < before / 3.0,
+        "D_C {before} -> {after} mm"
+    );
     // The recorded rest pose stands a few millimetres and degrees off the table (4.0 mm,
     // 2.3 degrees as the object settles) and is moved to where it rests; the last of the 60
     // frames is in the air, mid-lift, and stays as recorded.

@@ -36,6 +36,10 @@ pub struct ImportArgs {
     /// A scene for the demonstration instead of the table inferred from the recording.
     #[arg(long, value_name = "FILE", requires = "keypoints")]
     scene: Option<PathBuf>,
+    /// Keep the retargeted hand as it is inside the contact segment: no contact refinement
+    /// (the warp's contact IK on the recorded correspondences).
+    #[arg(long, requires = "keypoints")]
+    no_refine: bool,
     /// Use the convex hull of an object mesh that is open and cannot be repaired.
     #[arg(long)]
     hull_fallback: bool,
@@ -85,6 +89,7 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         handedness,
         keypoint_map,
         scene,
+        no_refine,
         hull_fallback,
         contacts,
         fps,
@@ -118,6 +123,7 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
             keypoint_map,
             hull_fallback,
             scene,
+            refine: !no_refine,
             params: Default::default(),
         };
         let (import, hull) =
@@ -203,6 +209,36 @@ fn report_keypoints(
     }
     if let Some(z) = import.table_top_z_m {
         eprintln!("table inferred at z = {z:.3} m: {}", import.scene.display());
+    }
+    if let Some(r) = &import.rest_correction {
+        let said = |corrected: bool| {
+            if corrected {
+                "moved there"
+            } else {
+                "kept: it does not rest there"
+            }
+        };
+        eprintln!(
+            "rest poses settled on the table: first {:.1} mm, {:.1}° ({}); last {:.1} mm, {:.1}° ({})",
+            r.start_mm,
+            r.start_deg,
+            said(r.start_corrected),
+            r.end_mm,
+            r.end_deg,
+            said(r.end_corrected)
+        );
+    }
+    if let Some(r) = &import.refinement {
+        eprintln!(
+            "contact refinement: D_C {:.1} mm -> {:.2} mm (IK at its threshold on {}), {:.1} s",
+            r.d_c_before_mm,
+            r.d_c_mm,
+            r.ik_converged_fraction.map_or("no".into(), |f| format!(
+                "{:.0} % of the contact frames",
+                f * 100.0
+            )),
+            r.time_s
+        );
     }
     for w in &import.warnings {
         eprintln!("warning: {w}");
