@@ -110,7 +110,10 @@ pub fn read_manifest(path: &Path, limits: &Limits) -> Result<Vec<Item>> {
                 path,
                 field.clone(),
                 format!(
-                    "{e}; expected one JSON object per line like {{\"config\": \"scenes/configs/mug_pass_wall.json\", \"threshold_mm\": 5}}"
+                    "{}; expected one JSON object per line like {{\"config\": \"scenes/configs/mug_pass_wall.json\", \"threshold_mm\": 5}}",
+                    crate::model::json::with_suggestion(crate::model::json::strip_position(
+                        &e.to_string()
+                    ))
                 ),
             )
         })?;

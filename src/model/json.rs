@@ -119,7 +119,7 @@ fn parse_error(path: &Path, bytes: &[u8], field: String, err: serde_json::Error)
 /// serde's "unknown field `barrier`, expected one of `name`, `barriers`, ..." (or
 /// "expected `x` or `y`", or "unknown variant ...") with the nearest known name appended when
 /// one is close: "did you mean `barriers`?".
-fn with_suggestion(message: String) -> String {
+pub(crate) fn with_suggestion(message: String) -> String {
     let Some(rest) = message
         .strip_prefix("unknown field `")
         .or_else(|| message.strip_prefix("unknown variant `"))
@@ -152,7 +152,7 @@ pub fn nearest_name<'a>(word: &str, known: &[&'a str]) -> Option<&'a str> {
         .map(|(_, k)| k)
 }
 
-fn strip_position(message: &str) -> String {
+pub(crate) fn strip_position(message: &str) -> String {
     match message.find(" at line ") {
         Some(i) => message[..i].to_string(),
         None => message.to_string(),

@@ -987,6 +987,14 @@ fn typos_and_inputs_no_command_could_use_are_refused_by_name() {
         ],
         3.0,
     );
+    // And in a batch manifest's line.
+    let manifest = dir.path().join("items.jsonl");
+    std::fs::write(&manifest, "{\"confg\": \"lift.config.json\"}\n").unwrap();
+    refused(
+        &["batch", s(&manifest), "--out", s(&out)],
+        &["items.jsonl", "line 1", "did you mean `config`?"],
+        3.0,
+    );
     // Unknown keys in a demonstration's object and in one of its frames: refused, with the
     // JSON path.
     let demo_path = dir.path().join("box.demo.json");
