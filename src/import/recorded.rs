@@ -176,7 +176,11 @@ fn moved_before_touch(rec: &Recording, touch: Option<[usize; 2]>) -> Option<[usi
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Refinement {
     pub d_c_before_mm: f64,
+    /// D_C of the demonstration written: the refined hand's when it was kept.
     pub d_c_mm: f64,
+    /// D_C the refinement reached, and whether it was kept (only when lower than before).
+    pub d_c_refined_mm: f64,
+    pub kept: bool,
     pub ik_converged_fraction: Option<f64>,
     pub time_s: f64,
 }
@@ -213,17 +217,28 @@ pub fn refine_contacts(demo: Demo, scene: &Path, limits: &Limits) -> Result<(Dem
             .physics(None)
             .limits(*limits),
     )?;
-    let mut refined = run.demo;
-    refined.timewarp = None;
-    refined.source = out.clone();
-    refined.save(&out)?;
-    let back = Demo::load(&out, limits)?;
     let r = &run.report;
+    let (before, after) = (r.metrics.d_c_mm.original, r.metrics.d_c_mm.warped);
+    // Kept only where it brings the fingertips closer: an IK that cannot reach the contacts
+    // (a hand far from the person's proportions) would otherwise trade the recording's
+    // approach for nothing.
+    let kept = after < before;
+    let demo = if kept {
+        let mut refined = run.demo;
+        refined.timewarp = None;
+        refined.source = out.clone();
+        refined.save(&out)?;
+        Demo::load(&out, limits)?
+    } else {
+        inputs.demo
+    };
     Ok((
-        back,
+        demo,
         Refinement {
-            d_c_before_mm: r.metrics.d_c_mm.original,
-            d_c_mm: r.metrics.d_c_mm.warped,
+            d_c_before_mm: before,
+            d_c_mm: if kept { after } else { before },
+            d_c_refined_mm: after,
+            kept,
             ik_converged_fraction: r.ik.as_ref().map(|ik| ik.converged_fraction),
             time_s: clock.elapsed().as_secs_f64(),
         },

@@ -230,9 +230,14 @@ fn report_keypoints(
     }
     if let Some(r) = &import.refinement {
         eprintln!(
-            "contact refinement: D_C {:.1} mm -> {:.2} mm (IK at its threshold on {}), {:.1} s",
+            "contact refinement: D_C {:.1} mm -> {:.2} mm{} (IK at its threshold on {}), {:.1} s",
             r.d_c_before_mm,
-            r.d_c_mm,
+            r.d_c_refined_mm,
+            if r.kept {
+                ""
+            } else {
+                ", not kept: the retargeted hand was closer"
+            },
             r.ik_converged_fraction.map_or("no".into(), |f| format!(
                 "{:.0} % of the contact frames",
                 f * 100.0
