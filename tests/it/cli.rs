@@ -585,3 +585,52 @@ fn validate_grasp_only_tells_a_holding_grasp_from_an_empty_hand() {
         "{c}"
     );
 }
+
+/// Every command's `--help` lists its own options first and the size limits once, under one
+/// "Limits" heading, with the same text everywhere.
+#[test]
+fn help_shows_each_commands_options_before_the_limits() {
+    let limits_of = |command: &str| -> String {
+        let o = dexwarp(&[command, "--help"]);
+        assert!(o.status.success(), "{command}: {}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        let options = text
+            .find("\nOptions:\n")
+            .unwrap_or_else(|| panic!("{command}: {text}"));
+        let limits = text
+            .find("\nLimits:\n")
+            .unwrap_or_else(|| panic!("{command}: {text}"));
+        assert!(options < limits, "{command}: the limits come first");
+        let (own, rest) = text.split_at(limits);
+        assert!(
+            !own.contains("--max-frames"),
+            "{command}: a limit among its options"
+        );
+        // `rest` starts with the newline before the heading.
+        let block: String = rest
+            .lines()
+            .skip(2)
+            .take_while(|l| l.is_empty() || l.starts_with(' '))
+            .collect::<Vec<_>>()
+            .join("\n");
+        assert!(block.contains("--max-frames") && block.contains("--allow-special-files"));
+        // The same words; clap lays them out in one or two columns by the command's other
+        // options.
+        block.split_whitespace().collect::<Vec<_>>().join(" ")
+    };
+    let first = limits_of("validate");
+    for command in [
+        "reproduce",
+        "synth",
+        "robot",
+        "warp",
+        "batch",
+        "augment",
+        "filter",
+        "report",
+        "export",
+        "import",
+    ] {
+        assert_eq!(limits_of(command), first, "{command}");
+    }
+}

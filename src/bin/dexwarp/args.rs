@@ -8,8 +8,10 @@ use dexwarp::hand::ik::Solver;
 use dexwarp::model::{Objective, WarmStart};
 use dexwarp::pipeline::{HandMethod, PhysicsOptions};
 
-/// Size limits on inputs; raise them for genuine large datasets.
+/// Size limits on inputs; raise them for genuine large datasets. Every command shows them
+/// under one "Limits" heading, after its own options.
 #[derive(Debug, Args)]
+#[command(next_help_heading = "Limits")]
 pub struct LimitArgs {
     /// Largest JSON, URDF or mesh file read [MiB] (default 512).
     #[arg(long, global = true, value_name = "MIB")]
