@@ -2,6 +2,7 @@
 mod actuated;
 mod augment;
 mod cli;
+mod docs;
 mod ensemble;
 mod export;
 mod fixtures;
