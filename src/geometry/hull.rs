@@ -667,14 +667,7 @@ mod tests {
 
     #[test]
     fn a_mesh_with_a_sliver_is_repaired_and_decomposed_as_closed() {
-        let (v, t) = l_shape();
-        let mut mesh = Mesh {
-            vertices: v
-                .iter()
-                .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
-                .collect(),
-            triangles: t,
-        };
+        let mut mesh = l_mesh();
         let [a, b, c] = mesh.triangles[0];
         mesh.triangles.push([a, b, c]);
         mesh.triangles.push([a, c, b]);
@@ -685,14 +678,7 @@ mod tests {
 
     #[test]
     fn the_mesh_collider_is_the_closed_mesh_with_its_own_mass() {
-        let (v, t) = l_shape();
-        let mesh = Mesh {
-            vertices: v
-                .iter()
-                .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
-                .collect(),
-            triangles: t,
-        };
+        let mesh = l_mesh();
         let params = DecompositionParams {
             collider: ObjectCollider::Mesh,
             ..DecompositionParams::default()
@@ -708,6 +694,18 @@ mod tests {
         // The parts of the same mesh are a different shape, not a cache hit of this one.
         let (parts, _) = object_shape(&mesh, &DecompositionParams::default()).unwrap();
         assert_ne!(parts.method, ShapeMethod::Mesh);
+    }
+
+    /// [`l_shape`] as a [`Mesh`].
+    fn l_mesh() -> Mesh {
+        let (v, t) = l_shape();
+        Mesh {
+            vertices: v
+                .iter()
+                .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
+                .collect(),
+            triangles: t,
+        }
     }
 
     /// An L-shaped prism (concave): two boxes sharing a face, as one closed mesh.
@@ -742,14 +740,7 @@ mod tests {
 
     #[test]
     fn link_meshes_become_their_hull_or_parts_by_the_volume_rule() {
-        let (v, t) = l_shape();
-        let mesh = Mesh {
-            vertices: v
-                .iter()
-                .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
-                .collect(),
-            triangles: t,
-        };
+        let mesh = l_mesh();
         // The L fills 51 % of its hull (< LINK_HULL_RATIO): split into parts.
         let parts = link_hulls(&mesh).expect("has volume");
         assert!(parts.len() >= 2, "{} parts", parts.len());

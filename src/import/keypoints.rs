@@ -209,17 +209,7 @@ fn keypoint_columns(path: &Path, header: &[String]) -> Result<(Vec<String>, Vec<
 
 /// Reads a keypoints CSV (see the module docs). Errors name the file, row and column.
 pub fn read_keypoints_csv(path: &Path, limits: &Limits) -> Result<Recording> {
-    let bytes =
-        crate::model::json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_reader(bytes.as_slice());
-    let header: Vec<String> = rdr
-        .headers()
-        .map_err(|e| Error::invalid(path, "header", format!("{e}; expected a CSV header row")))?
-        .iter()
-        .map(canonical)
-        .collect();
+    let (mut rdr, header) = super::open_csv(path, limits, canonical)?;
     let (wanted, columns) = keypoint_columns(path, &header)?;
     let mut rec = Recording {
         object: Vec::new(),

@@ -152,19 +152,33 @@ impl Clock {
     }
 }
 
-/// Reads the frames CSV (see the module docs) for `robot`.
-pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Vec<Pose>> {
+/// A CSV reader over a file read whole.
+pub(crate) type CsvReader = csv::Reader<std::io::Cursor<Vec<u8>>>;
+
+/// A CSV file read whole (within `--max-file-mb`), fields trimmed: its reader, positioned
+/// after the header, and the header's names through `name`.
+pub(crate) fn open_csv(
+    path: &Path,
+    limits: &Limits,
+    name: impl Fn(&str) -> String,
+) -> Result<(CsvReader, Vec<String>)> {
     let bytes =
         crate::model::json::read_limited(path, limits, limits.max_file_bytes, "--max-file-mb")?;
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
-        .from_reader(bytes.as_slice());
-    let header: Vec<String> = rdr
+        .from_reader(std::io::Cursor::new(bytes));
+    let header = rdr
         .headers()
         .map_err(|e| Error::invalid(path, "header", format!("{e}; expected a CSV header row")))?
         .iter()
-        .map(str::to_string)
+        .map(name)
         .collect();
+    Ok((rdr, header))
+}
+
+/// Reads the frames CSV (see the module docs) for `robot`.
+pub fn read_frames_csv(path: &Path, robot: &Robot, limits: &Limits) -> Result<Vec<Pose>> {
+    let (mut rdr, header) = open_csv(path, limits, str::to_string)?;
     let index: HashMap<&str, usize> = header
         .iter()
         .enumerate()

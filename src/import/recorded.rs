@@ -541,9 +541,16 @@ pub fn import_keypoints(
         Some(scene_path.clone()),
         limits,
     )?;
-    let (demo, refinement) = if options.refine {
-        let (d, r) = refine_contacts(demo, &scene_path, limits)?;
-        (d, Some(r))
+    // Refined where the recording touches; a refinement that cannot run leaves the
+    // retargeted hand and says why.
+    let (demo, refinement) = if options.refine && hand.touch.is_some() {
+        match refine_contacts(demo.clone(), &scene_path, limits) {
+            Ok((d, r)) => (d, Some(r)),
+            Err(e) => {
+                warnings.push(format!("contact refinement not applied: {e}"));
+                (demo, None)
+            }
+        }
     } else {
         (demo, None)
     };
