@@ -145,7 +145,7 @@ impl std::fmt::Display for ShapeError {
                 mesh_volume_m3,
             } => write!(
                 f,
-                "the mesh is not closed ({defects}) and too damaged to repair (slivers, repeated triangles and holes of at most {MAX_HOLE_EDGES} edges are); expected a closed object mesh. Close it in a mesh tool, or set physics.decomposition.hull_fallback to simulate its convex hull ({:.1} cm³ against the mesh's {:.1} cm³)",
+                "the mesh is not closed ({defects}) and too damaged to repair (slivers, repeated triangles and holes of at most {MAX_HOLE_EDGES} edges are); expected a closed object mesh. Close it in a mesh tool, or ask for its convex hull (hull_fallback: `import --hull-fallback`, `physics.decomposition.hull_fallback` in a config), {:.1} cm³ against the mesh's {:.1} cm³",
                 hull_volume_m3 * 1e6,
                 mesh_volume_m3.abs() * 1e6
             ),
@@ -198,39 +198,30 @@ pub fn object_shape(
         return Ok((s, true));
     }
     let (solid, repair) = solid_mesh(mesh);
-    let shape =
-        if solid.is_closed_and_consistently_wound() && params.collider == ObjectCollider::Mesh {
-            mesh_collider(&solid, repair)?
-        } else if solid.is_closed_and_consistently_wound() {
-            let mut shape = build(&solid, params).ok_or(ShapeError::Degenerate)?;
-            shape.repair = repair;
-            let volume = solid.signed_volume().abs();
-            shape.volume_ratio = (volume > 0.0).then(|| shape.unit_mass.mass() / volume);
-            shape
-        } else {
-            let hull = mesh.convex_hull().ok_or(ShapeError::Degenerate)?;
-            let hull_volume_m3 = hull.mass_properties(1.0).mass();
-            let mesh_volume_m3 = mesh.signed_volume().abs();
-            if !params.hull_fallback {
-                return Err(ShapeError::Open {
-                    defects: mesh.defects(),
-                    hull_volume_m3,
-                    mesh_volume_m3,
-                });
-            }
-            let start = Instant::now();
-            let compound = SharedShape::compound(vec![(Pose::IDENTITY, hull.clone())]);
-            ObjectShape {
-                parts: vec![hull],
-                unit_mass: compound.mass_properties(1.0),
-                compound,
-                method: ShapeMethod::HullFallback,
-                repair,
-                fallback_volumes_m3: Some([hull_volume_m3, mesh_volume_m3]),
-                volume_ratio: None,
-                build_s: start.elapsed().as_secs_f64(),
-            }
-        };
+    let closed = solid.is_closed_and_consistently_wound();
+    let shape = if closed && params.collider == ObjectCollider::Mesh {
+        mesh_collider(&solid, repair)?
+    } else if closed {
+        let mut shape = build(&solid, params).ok_or(ShapeError::Degenerate)?;
+        shape.repair = repair;
+        let volume = solid.signed_volume().abs();
+        shape.volume_ratio = (volume > 0.0).then(|| shape.unit_mass.mass() / volume);
+        shape
+    } else {
+        let (hull, volumes) = open_mesh_hull(mesh, params.hull_fallback)?;
+        let start = Instant::now();
+        let compound = SharedShape::compound(vec![(Pose::IDENTITY, hull.clone())]);
+        ObjectShape {
+            parts: vec![hull],
+            unit_mass: compound.mass_properties(1.0),
+            compound,
+            method: ShapeMethod::HullFallback,
+            repair,
+            fallback_volumes_m3: Some(volumes),
+            volume_ratio: None,
+            build_s: start.elapsed().as_secs_f64(),
+        }
+    };
     let shape = Arc::new(shape);
     if let Ok(mut c) = cache().lock() {
         c.insert(key, shape.clone());
@@ -238,12 +229,29 @@ pub fn object_shape(
     Ok((shape, false))
 }
 
-/// The closed, outward-wound `mesh` as one triangle-mesh part ([`ObjectCollider::Mesh`]).
+/// The convex hull of a `mesh` that stays open after its repair, with the hull's and the
+/// mesh's volumes [m³], when `hull_fallback` asks for it; [`ShapeError::Open`] otherwise.
+pub fn open_mesh_hull(
+    mesh: &Mesh,
+    hull_fallback: bool,
+) -> Result<(SharedShape, [f64; 2]), ShapeError> {
+    let hull = mesh.convex_hull().ok_or(ShapeError::Degenerate)?;
+    let volumes = [hull.mass_properties(1.0).mass(), mesh.signed_volume().abs()];
+    if !hull_fallback {
+        return Err(ShapeError::Open {
+            defects: mesh.defects(),
+            hull_volume_m3: volumes[0],
+            mesh_volume_m3: volumes[1],
+        });
+    }
+    Ok((hull, volumes))
+}
+
+/// The closed, outward-wound `mesh` ([`solid_mesh`]) as one triangle-mesh part
+/// ([`ObjectCollider::Mesh`]).
 fn mesh_collider(mesh: &Mesh, repair: Option<Repair>) -> Result<ObjectShape, ShapeError> {
     let start = Instant::now();
-    let mut oriented = mesh.clone();
-    oriented.orient_outward();
-    let shape = SharedShape::new(oriented.to_trimesh(true).ok_or(ShapeError::Degenerate)?);
+    let shape = SharedShape::new(mesh.to_trimesh(true).ok_or(ShapeError::Degenerate)?);
     let unit_mass = shape.mass_properties(1.0);
     Ok(ObjectShape {
         parts: vec![shape.clone()],
@@ -260,6 +268,16 @@ fn mesh_collider(mesh: &Mesh, repair: Option<Repair>) -> Result<ObjectShape, Sha
 /// Above this [`ObjectShape::volume_ratio`], commands warn that the simulated object is
 /// fuller than its mesh.
 pub const FULLER_THAN_MESH: f64 = 1.25;
+
+/// The warning `import` and `validate` give when the simulated object is fuller than its
+/// mesh (`ratio`: [`ObjectShape::volume_ratio`] above [`FULLER_THAN_MESH`]).
+pub fn fuller_than_mesh(ratio: Option<f64>) -> Option<String> {
+    ratio.filter(|r| *r > FULLER_THAN_MESH).map(|r| {
+        format!(
+            "the object's convex parts (what physics simulates) hold {r:.2}x its mesh's volume: thin walls or hollows are filled, so a hand on the mesh's surface there is inside the simulated object (--object-collider mesh simulates the mesh itself)"
+        )
+    })
+}
 
 /// `mesh` closed and wound outward by [`Mesh::repair`] when it is open or inside out (with
 /// what the repair did), or `mesh` itself when it is closed and outward. A mesh the repair

@@ -250,6 +250,21 @@ impl Mesh {
         SharedShape::convex_hull(&points)
     }
 
+    /// The convex hull of the vertices as a closed, outward-wound mesh; `None` when the
+    /// vertices are degenerate.
+    pub fn convex_hull_mesh(&self) -> Option<Mesh> {
+        let points: Vec<_> = self.vertices.iter().map(to_point).collect();
+        let (v, triangles) = rapier3d_f64::parry::transformation::try_convex_hull(&points).ok()?;
+        let mut hull = Mesh {
+            vertices: v.iter().map(|p| Point3::new(p.x, p.y, p.z)).collect(),
+            triangles,
+        };
+        (hull.vertices.len() >= 4).then(|| {
+            hull.orient_outward();
+            hull
+        })
+    }
+
     /// The OBJ text of the mesh: a comment line, `v x y z` lines with 6 decimals
     /// (micrometres), then `f a b c` lines with 1-based indices. Deterministic.
     pub fn to_obj_string(&self) -> String {

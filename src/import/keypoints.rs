@@ -620,7 +620,7 @@ fn hold_spans(points: &mut [Option<Point3<f64>>]) {
 /// frames): how much smaller the robot hand is than the person's.
 fn hand_scale(robot: &Robot, resolved: &Resolved, rec: &Recording) -> f64 {
     let mut poses = robot.new_link_poses();
-    let q = zero_or_mid(robot);
+    let q = flat_hand(robot);
     robot.forward_kinematics(&Isometry3::identity(), &q, &mut poses);
     let on_robot: HashMap<usize, Point3<f64>> = resolved
         .keypoints
@@ -651,20 +651,11 @@ fn hand_scale(robot: &Robot, resolved: &Resolved, rec: &Recording) -> f64 {
     }
 }
 
-/// Joints at zero where that is within the limits, else mid-range.
-fn zero_or_mid(robot: &Robot) -> Vec<f64> {
-    robot
-        .lower()
-        .iter()
-        .zip(robot.upper())
-        .map(|(l, u)| {
-            if *l <= 0.0 && *u >= 0.0 {
-                0.0
-            } else {
-                0.5 * (l + u)
-            }
-        })
-        .collect()
+/// The robot's flat hand: every joint at 0, clamped into its limits.
+fn flat_hand(robot: &Robot) -> Vec<f64> {
+    let mut q = vec![0.0; robot.dof()];
+    robot.clamp(&mut q);
+    q
 }
 
 /// Per frame the point the recorded hand is scaled about: the centroid of its touches while
@@ -854,7 +845,7 @@ pub fn retarget(
         .map(|t| rec.keypoints[t].map(|p| centres[t] + (p - centres[t]) * scale))
         .collect();
     // The first frame starts from the palm frame of the keypoints.
-    let q = zero_or_mid(robot);
+    let q = flat_hand(robot);
     let mut poses = robot.new_link_poses();
     robot.forward_kinematics(&Isometry3::identity(), &q, &mut poses);
     let palm_link = resolved

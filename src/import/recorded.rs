@@ -191,7 +191,13 @@ pub struct Refinement {
 /// default threshold) then solves the hand on the correspondences alone, starting from the
 /// retargeted hand, as an identity warp would: no waypoints, the recorded timing kept
 /// (`retime: speed`), no physics. Outside contact the hand stays as retargeted.
-pub fn refine_contacts(demo: Demo, scene: &Path, limits: &Limits) -> Result<(Demo, Refinement)> {
+pub fn refine_contacts(
+    demo: Demo,
+    robot: &Robot,
+    mesh: &Mesh,
+    scene: &Path,
+    limits: &Limits,
+) -> Result<(Demo, Refinement)> {
     let clock = Instant::now();
     let out = demo.source.clone();
     let scene = std::path::absolute(scene).map_err(|e| Error::read(scene, e))?;
@@ -210,7 +216,12 @@ pub fn refine_contacts(demo: Demo, scene: &Path, limits: &Limits) -> Result<(Dem
         },
         source: out.clone(),
     };
-    let inputs = crate::pipeline::Inputs::new(config, demo, limits)?;
+    let loaded = crate::pipeline::Loaded {
+        demo,
+        robot: robot.clone(),
+        mesh: mesh.clone(),
+    };
+    let inputs = crate::pipeline::Inputs::with(config, loaded, limits)?;
     let run = crate::pipeline::warp(
         &inputs,
         &crate::pipeline::Options::new(crate::pipeline::HandMethod::Contact)
@@ -331,63 +342,27 @@ pub fn settle_rest_poses(
     })
 }
 
-/// The object mesh made solid: repaired when open, refused when that cannot close it (or
-/// replaced by its hull with `hull_fallback`); returns the mesh, the repair, and the hull's
-/// and mesh's volumes when the hull stands in.
+/// The object mesh made solid as physics makes it ([`crate::geometry::hull::solid_mesh`]):
+/// repaired when open or inside out, refused when that cannot close it (or replaced by its
+/// hull with `hull_fallback`); returns the mesh, the repair, and the hull's and mesh's
+/// volumes [cm³] when the hull stands in.
 fn solid_object(
     path: &Path,
-    mut mesh: Mesh,
+    mesh: Mesh,
     hull_fallback: bool,
 ) -> Result<(Mesh, Option<Repair>, Option<[f64; 2]>)> {
-    if mesh.is_closed_and_consistently_wound() && mesh.signed_volume() >= 0.0 {
-        return Ok((mesh, None, None));
+    let (solid, repair) = crate::geometry::hull::solid_mesh(&mesh);
+    if solid.is_closed_and_consistently_wound() {
+        return Ok((solid.into_owned(), repair, None));
     }
-    let before = mesh.clone();
-    let repair = mesh.repair();
-    if repair.closed {
-        return Ok((mesh, Some(repair), None));
-    }
-    let hull = before.convex_hull().ok_or_else(|| {
-        Error::invalid(
-            path,
-            "vertices",
-            "the mesh is degenerate; expected a solid object",
-        )
-    })?;
-    let hull_volume = hull.mass_properties(1.0).mass();
-    let mesh_volume = before.signed_volume().abs();
-    if !hull_fallback {
-        return Err(Error::invalid(
-            path,
-            "(mesh)",
-            format!(
-                "is not closed ({}) and too damaged to repair; expected a closed object mesh. Close it in a mesh tool, or pass --hull-fallback to use its convex hull ({:.1} cm³ against the mesh's {:.1} cm³)",
-                before.defects(),
-                hull_volume * 1e6,
-                mesh_volume * 1e6
-            ),
-        ));
-    }
-    let points: Vec<_> = before
-        .vertices
-        .iter()
-        .map(crate::math::convert::to_point)
-        .collect();
-    let (v, t) = rapier3d_f64::parry::transformation::try_convex_hull(&points)
-        .map_err(|e| Error::invalid(path, "vertices", format!("no convex hull: {e:?}")))?;
-    let mut hull_mesh = Mesh {
-        vertices: v
-            .iter()
-            .map(|p| nalgebra::Point3::new(p.x, p.y, p.z))
-            .collect(),
-        triangles: t,
-    };
-    hull_mesh.orient_outward();
-    Ok((
-        hull_mesh,
-        Some(repair),
-        Some([hull_volume * 1e6, mesh_volume * 1e6]),
-    ))
+    let refused =
+        |e: crate::geometry::hull::ShapeError| Error::invalid(path, "(mesh)", e.to_string());
+    let (_, [hull, whole]) =
+        crate::geometry::hull::open_mesh_hull(&mesh, hull_fallback).map_err(refused)?;
+    let hull_mesh = mesh
+        .convex_hull_mesh()
+        .ok_or_else(|| refused(crate::geometry::hull::ShapeError::Degenerate))?;
+    Ok((hull_mesh, repair, Some([hull * 1e6, whole * 1e6])))
 }
 
 /// `dexwarp import --keypoints` (see the module docs and [`keypoints`]).
@@ -489,11 +464,7 @@ pub fn import_keypoints(
     let volume_ratio = crate::geometry::hull::object_shape(&mesh, &Default::default())
         .ok()
         .and_then(|(s, _)| s.volume_ratio);
-    if let Some(r) = volume_ratio.filter(|r| *r > crate::geometry::hull::FULLER_THAN_MESH) {
-        warnings.push(format!(
-            "the object's convex parts (what physics simulates) hold {r:.2}x its mesh's volume: thin walls or hollows are filled, so fingers on the mesh's surface there are inside the simulated object and push it"
-        ));
-    }
+    warnings.extend(crate::geometry::hull::fuller_than_mesh(volume_ratio));
     if let Some([a, b]) = moved_before_touch(&rec, hand.touch) {
         warnings.push(format!(
             "the object moves more than 5 mm from its first pose on frames {a}-{b}, before the recorded hand touches it (first touch: {}); the replay cannot reproduce that",
@@ -544,7 +515,7 @@ pub fn import_keypoints(
     // Refined where the recording touches; a refinement that cannot run leaves the
     // retargeted hand and says why.
     let (demo, refinement) = if options.refine && hand.touch.is_some() {
-        match refine_contacts(demo.clone(), &scene_path, limits) {
+        match refine_contacts(demo.clone(), &robot, &mesh, &scene_path, limits) {
             Ok((d, r)) => (d, Some(r)),
             Err(e) => {
                 warnings.push(format!("contact refinement not applied: {e}"));

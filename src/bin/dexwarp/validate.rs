@@ -102,14 +102,8 @@ pub fn run(args: ValidateArgs, limits: Limits) -> Result<()> {
         if let Some(r) = &replay.mesh_repair {
             eprintln!("{}: its object mesh was repaired: {r}", demo.display());
         }
-        if let Some(ratio) = replay
-            .object_volume_ratio
-            .filter(|r| *r > dexwarp::geometry::hull::FULLER_THAN_MESH)
-        {
-            eprintln!(
-                "{}: warning: the object's convex parts hold {ratio:.2}x its mesh's volume (thin walls or hollows filled): a hand on the mesh's surface there is inside the simulated object",
-                demo.display()
-            );
+        if let Some(w) = dexwarp::geometry::hull::fuller_than_mesh(replay.object_volume_ratio) {
+            eprintln!("{}: warning: {w}", demo.display());
         }
         if let Some([hull, mesh]) = replay.hull_fallback_volumes_cm3 {
             eprintln!(
