@@ -2,20 +2,24 @@
 """How far the ensemble's keep/drop decisions depend on its seed, and whether a change to
 the replay moves them by more than that.
 
-    scripts/ensemble_agreement.py RUN_A RUN_B [CANDIDATE]
+    scripts/ensemble_agreement.py RUN_A RUN_B
+    scripts/ensemble_agreement.py RUN_A RUN_B RUN_C CANDIDATE
 
-RUN_A and RUN_B are two `dexwarp augment` output folders of the same demonstration, spec,
-`--seed` and `--count`, run with different `--ensemble-seed`. Prints, over the samples that
-ran in both: how many got a different decision (kept in one, failed in the other), how many
-of those were `uncertain` in at least one run, the mean absolute difference of their pass
-fractions, and each differing sample. Exits 1 when a differing sample is certain in both runs.
+RUN_A, RUN_B (and RUN_C) are `dexwarp augment` output folders of the same demonstration,
+spec, `--seed` and `--count`, run with different `--ensemble-seed`. Prints, over the samples
+that ran in both A and B: how many got a different decision (kept in one, failed in the
+other), how many of those were `uncertain` in at least one run, the mean absolute difference
+of their pass fractions, and each differing sample. Exits 1 when a differing sample is
+certain in both runs.
 
-With CANDIDATE, a third run of the same samples with a changed replay (another binary, or
-the spec's `params.physics`): the same figures of CANDIDATE against RUN_A and against RUN_B,
-and whether it agrees with the reference as well as the reference's two seeds agree with
-each other: its kept share within the two seeds' difference of kept shares (at least one
-sample), its mean absolute difference of pass fractions within the seeds' own. Exits 1 when
-it does not.
+With RUN_C and CANDIDATE: CANDIDATE is a run of the same samples with a changed replay
+(another binary, or the spec's `params.physics`) and the same `--ensemble-seed` as RUN_C, so
+that the two differ by the change alone. The seed-to-seed figures are those of the three
+reference pairs (A-B, A-C, B-C); the change is acceptable when the candidate's mean absolute
+difference of pass fractions from RUN_C is at most their mean, and its kept share differs
+from RUN_C's by no more than the largest kept-share gap between two seeds (at least one
+sample): the change moves the pass fractions less than drawing the ensemble again does.
+Exits 1 when it does not.
 """
 import csv
 import sys
@@ -41,27 +45,35 @@ def figures(a, b):
     return len(both), share(a), share(b), sum(diffs) / max(len(diffs), 1)
 
 
-def candidate(a, b, c):
-    n, sa, sb, seeds = figures(a, b)
-    print(f"\nreference seeds: kept share {sa:.3f} / {sb:.3f}, mean |pass fraction| difference {seeds:.3f} over {n}")
-    ok = True
-    for name, ref in (("A", a), ("B", b)):
-        m, sr, sc, diff = figures(ref, c)
-        share_gap = abs(sc - sr)
-        allowed = max(abs(sa - sb), 1 / m)
-        within = share_gap <= allowed and diff <= seeds
-        ok &= within
-        print(
-            f"candidate against {name}: kept share {sc:.3f} against {sr:.3f} "
-            f"(gap {share_gap:.3f}, seeds' {abs(sa - sb):.3f}, one sample {1 / m:.3f}); "
-            f"mean |pass fraction| difference {diff:.3f} against the seeds' {seeds:.3f}: "
-            + ("within" if within else "NOT within")
-        )
+def candidate(refs, c, cand):
+    pairs = [(0, 1), (0, 2), (1, 2)]
+    seeds = []
+    gaps = []
+    for i, j in pairs:
+        n, si, sj, diff = figures(refs[i], refs[j])
+        seeds.append(diff)
+        gaps.append(abs(si - sj))
+        print(f"reference seeds {'ABC'[i]}-{'ABC'[j]}: kept share {si:.3f} / {sj:.3f}, mean |pass fraction| difference {diff:.3f} over {n}")
+    n, sc, sx, diff = figures(c, cand)
+    differ = [i for i in sorted(set(c) & set(cand)) if c[i]["status"] != cand[i]["status"]]
+    certain = [
+        i for i in differ if c[i]["uncertain"] != "true" and cand[i]["uncertain"] != "true"
+    ]
+    seed_mean = sum(seeds) / len(seeds)
+    allowed = max(max(gaps), 1 / n)
+    ok = diff <= seed_mean and abs(sx - sc) <= allowed + 1e-12
+    print(
+        f"candidate against C (same ensemble seed): kept share {sx:.3f} against {sc:.3f} "
+        f"(gap {abs(sx - sc):.3f}, seeds' largest {max(gaps):.3f}, one sample {1 / n:.3f}); "
+        f"decisions that differ {len(differ)} of {n} ({len(certain)} certain in both); "
+        f"mean |pass fraction| difference {diff:.3f} against the seeds' mean {seed_mean:.3f}: "
+        + ("within" if ok else "NOT within")
+    )
     return ok
 
 
 def main():
-    if len(sys.argv) not in (3, 4):
+    if len(sys.argv) not in (3, 5):
         sys.exit(__doc__)
     a, b = rows(sys.argv[1]), rows(sys.argv[2])
     both = sorted(set(a) & set(b))
@@ -91,8 +103,9 @@ def main():
             f"(uncertain {b[i]['uncertain']})"
         )
     ok = len(uncertain) == len(differ)
-    if len(sys.argv) == 4:
-        ok &= candidate(a, b, rows(sys.argv[3]))
+    if len(sys.argv) == 5:
+        c = rows(sys.argv[3])
+        ok &= candidate([a, b, c], c, rows(sys.argv[4]))
     sys.exit(0 if ok else 1)
 
 

@@ -29,10 +29,20 @@
 //! threshold, 0-1 and 7-8 passes are certain, 2-6 uncertain. A higher threshold cannot be
 //! certified at this K (8 of 8 passes give an interval from 0.68): choose it with K.
 //!
-//! **Early stop.** Members are replayed in parallel, a batch at a time; the ensemble stops
-//! once no outcome of the members left could change the decision or its certainty. Which
-//! members count is decided in member order, whatever the batch size, so the report is the
-//! same on any number of cores.
+//! **Early stop.** After the nominal replay, members 1 to K − 2 are replayed as one batch and
+//! the last one only if needed; the ensemble stops once no outcome of the members left could
+//! change the decision or its certainty. Which members count is decided in member order,
+//! whatever the batch, so the report is the same on any number of cores.
+//!
+//! **Shared worlds.** With the kinematic hand, a batch's members are replayed together in one
+//! Rapier world, at most 8 to a world, each in a collision group of its own
+//! ([`super::world::ReplayWorld::shared`]): the solver packs different members' contacts into
+//! its SIMD lanes, which one member's contacts (all on the one object) never fill. The worlds
+//! of a batch run in parallel; how the members are grouped depends on K alone. The nominal
+//! member keeps a world of its own and is the single replay to the bit; the others are not
+//! the same to the bit as alone (the solver's order differs), which moves pass fractions less
+//! than another ensemble seed does (docs/RESULTS.md, "Physics speed judged by pass
+//! fractions").
 //!
 //! Seeds: member `m`'s draw comes from `math::stream_seed(seed ^ fnv(name), m)`, a ChaCha8
 //! stream of its own, where `name` is the demonstration's. The same trajectory and seed give

@@ -494,8 +494,8 @@ fn validate_one(
 }
 
 /// The ensemble of `demo` given its nominal replay's `report` ([`ensemble`]): the perturbed
-/// members replayed a batch at a time (one member a core), in member order, until all are
-/// replayed or the early stop holds.
+/// members replayed in member order, a batch at a time (members 1 to K − 2, then the last),
+/// until all are replayed or the early stop holds.
 fn run_ensemble(
     nominal: &PhysicsReport,
     robot: &Robot,
@@ -507,12 +507,70 @@ fn run_ensemble(
     limits: &Limits,
 ) -> Result<Ensemble> {
     let ep = &params.ensemble;
-    let penetration = PenetrationRun {
-        penetration: nominal.penetration.clone(),
-        per_ho: nominal.per_frame.hand_object_penetration_mm.clone(),
-        per_hb: nominal.per_frame.hand_barrier_penetration_mm.clone(),
+    let replays = MemberReplays {
+        robot,
+        demo,
+        scene,
+        barriers,
+        object_mesh,
+        params,
+        limits,
+        penetration: PenetrationRun {
+            penetration: nominal.penetration.clone(),
+            per_ho: nominal.per_frame.hand_object_penetration_mm.clone(),
+            per_hb: nominal.per_frame.hand_barrier_penetration_mm.clone(),
+        },
     };
-    let run_member = |index: usize| -> Result<ensemble::Member> {
+    let mut members = vec![ensemble::Member {
+        index: 0,
+        draw: ensemble::Draw::default(),
+        passed: nominal.passed(),
+        reason: nominal.reasons.first().cloned(),
+    }];
+    let stop = |members: &[ensemble::Member]| {
+        let passed = members.iter().filter(|m| m.passed).count();
+        members.len() >= ep.members
+            || (ep.early_stop
+                && ensemble::can_stop(passed, members.len(), ep.members, ep.keep_threshold))
+    };
+    // Every member but the last in one batch, then the last if the early stop does not hold:
+    // a trajectory that passes every replay stops after K − 1 members.
+    'batches: while !stop(&members) {
+        let next = members.len();
+        let end = if next == 1 {
+            (ep.members - 1).max(2).min(ep.members)
+        } else {
+            ep.members
+        };
+        let indices: Vec<usize> = (next..end).collect();
+        for m in replays.run(&indices)? {
+            members.push(m);
+            if stop(&members) {
+                break 'batches;
+            }
+        }
+    }
+    Ok(Ensemble::of(ep, members, nominal.reasons.clone()))
+}
+
+/// What the perturbed members of one trajectory's ensemble share: the trajectory, its world
+/// and the nominal replay's penetration checks (which measure the trajectory as written).
+struct MemberReplays<'a> {
+    robot: &'a Robot,
+    demo: &'a Demo,
+    scene: &'a Scene,
+    barriers: &'a [String],
+    object_mesh: &'a Mesh,
+    params: &'a Params,
+    limits: &'a Limits,
+    penetration: PenetrationRun,
+}
+
+impl MemberReplays<'_> {
+    /// Member `index`'s draw, trajectory, parameters and object start.
+    fn perturbed(&self, index: usize) -> (ensemble::Draw, Demo, Params, nalgebra::Isometry3<f64>) {
+        let (demo, params) = (self.demo, self.params);
+        let ep = &params.ensemble;
         let draw = ep.draw(&demo.name, index);
         let mut d = demo.clone();
         let mut jitter = ensemble::Jitter::new(&draw, ep, demo.fps);
@@ -528,55 +586,103 @@ fn run_ensemble(
             ensemble: EnsembleParams::single(),
             ..params.clone()
         };
-        let setup = MemberSetup {
-            object_start: draw.apply_to_start(&demo.frames[0].object),
-            penetration: &penetration,
-        };
-        let r = validate_one(
-            robot,
-            &d,
-            scene,
-            barriers,
-            object_mesh,
-            &p,
-            limits,
-            Some(&setup),
-        )?;
-        Ok(ensemble::Member {
-            index,
-            draw,
-            passed: r.passed(),
-            reason: r.reasons.first().cloned(),
-        })
-    };
-    let mut members = vec![ensemble::Member {
-        index: 0,
-        draw: ensemble::Draw::default(),
-        passed: nominal.passed(),
-        reason: nominal.reasons.first().cloned(),
-    }];
-    let stop = |members: &[ensemble::Member]| {
-        let passed = members.iter().filter(|m| m.passed).count();
-        members.len() >= ep.members
-            || (ep.early_stop
-                && ensemble::can_stop(passed, members.len(), ep.members, ep.keep_threshold))
-    };
-    let batch = rayon::current_num_threads().max(1);
-    'batches: while !stop(&members) {
-        let next = members.len();
-        let indices: Vec<usize> = (next..(next + batch).min(ep.members)).collect();
-        let done = indices
-            .par_iter()
-            .map(|&i| run_member(i))
-            .collect::<Result<Vec<_>>>()?;
-        for m in done {
-            members.push(m);
-            if stop(&members) {
-                break 'batches;
-            }
+        let start = draw.apply_to_start(&demo.frames[0].object);
+        (draw, d, p, start)
+    }
+
+    /// Replays the members `indices`: in shared worlds with the kinematic hand, each in a
+    /// world of its own with the actuated one.
+    fn run(&self, indices: &[usize]) -> Result<Vec<ensemble::Member>> {
+        match self.params.hand {
+            HandModel::Kinematic => self.shared(indices),
+            HandModel::Actuated => self.alone(indices),
         }
     }
-    Ok(Ensemble::of(ep, members, nominal.reasons.clone()))
+
+    /// Members in worlds of their own, in parallel.
+    fn alone(&self, indices: &[usize]) -> Result<Vec<ensemble::Member>> {
+        indices
+            .par_iter()
+            .map(|&index| {
+                let (draw, d, p, object_start) = self.perturbed(index);
+                let setup = MemberSetup {
+                    object_start,
+                    penetration: &self.penetration,
+                };
+                let r = validate_one(
+                    self.robot,
+                    &d,
+                    self.scene,
+                    self.barriers,
+                    self.object_mesh,
+                    &p,
+                    self.limits,
+                    Some(&setup),
+                )?;
+                Ok(ensemble::Member {
+                    index,
+                    draw,
+                    passed: r.passed(),
+                    reason: r.reasons.first().cloned(),
+                })
+            })
+            .collect()
+    }
+
+    /// Members sharing worlds: contiguous groups of at most [`SHARED_MEMBERS`], as even as
+    /// they come, one world each, the worlds in parallel. The grouping depends on the
+    /// indices alone, so the outcome does not depend on the cores.
+    fn shared(&self, indices: &[usize]) -> Result<Vec<ensemble::Member>> {
+        let (robot, params) = (self.robot, self.params);
+        let (object, cached, _) = object_shapes(self.demo, self.object_mesh, params)?;
+        let (supports, solid) = scene_items(self.scene, self.barriers, self.limits)?;
+        let worlds = indices.len().div_ceil(SHARED_MEMBERS).max(1);
+        let size = indices.len().div_ceil(worlds).max(1);
+        let groups: Vec<&[usize]> = indices.chunks(size).collect();
+        let done: Vec<Vec<ensemble::Member>> = groups
+            .par_iter()
+            .map(|group| {
+                let (mut draws, mut demos, mut params_of, mut starts) =
+                    (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                for &i in group.iter() {
+                    let (draw, d, p, start) = self.perturbed(i);
+                    draws.push(draw);
+                    demos.push(d);
+                    params_of.push(p);
+                    starts.push(start);
+                }
+                let traces = run_shared_replay(
+                    robot, &demos, &params_of, &starts, &object, &supports, &solid, params,
+                );
+                draws
+                    .into_iter()
+                    .zip(demos.iter().zip(&params_of))
+                    .zip(traces)
+                    .zip(group.iter())
+                    .map(|(((draw, (d, p)), trace), &index)| {
+                        let checked = check_replay(robot, d, &object, &supports, &trace, p);
+                        let r = judge(
+                            d,
+                            &object,
+                            cached,
+                            &trace,
+                            self.penetration.clone(),
+                            checked,
+                            Timing::default(),
+                            p,
+                        );
+                        ensemble::Member {
+                            index,
+                            draw,
+                            passed: r.passed(),
+                            reason: r.reasons.first().cloned(),
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(done.into_iter().flatten().collect())
+    }
 }
 
 /// The grasp hold test (`dexwarp validate --grasp-only`, and `synth`'s choice of grasp).
@@ -774,6 +880,48 @@ fn scene_items(
     Ok((supports, solid))
 }
 
+/// The supports and barriers as the world's fixed items, supports first.
+fn fixed_items<'a>(
+    supports: &'a [(String, CollisionShape)],
+    solid: &'a [(String, CollisionShape)],
+) -> Vec<FixedItem<'a>> {
+    supports
+        .iter()
+        .map(|(_, s)| FixedItem {
+            shape: s,
+            tag: Tag::Support,
+        })
+        .chain(solid.iter().map(|(_, s)| FixedItem {
+            shape: s,
+            tag: Tag::Barrier,
+        }))
+        .collect()
+}
+
+/// What the replay of `demo`, its object starting at `start`, may leave out.
+fn shortcuts(
+    demo: &Demo,
+    object: &ObjectShape,
+    start: &nalgebra::Isometry3<f64>,
+    supports: &[(String, CollisionShape)],
+    params: &Params,
+) -> replay::Shortcuts {
+    replay::Shortcuts {
+        rest: params.skip_rest,
+        rests_at_start: params.skip_rest
+            && checks::nearest_support(object, start, &named(supports))
+                .is_some_and(|(_, gap)| gap <= params.support_gap_m),
+        drop: demo
+            .contact_segment()
+            .filter(|_| params.stop_after_drop)
+            .map(|segment| replay::DropStop {
+                segment,
+                error_m: params.drop_error_m,
+                window: drop_window(demo.fps),
+            }),
+    }
+}
+
 /// Builds the world (hand and object at frame 0, the supports and barriers fixed) and
 /// replays the trajectory in it: the trace and the wall time [s]. The object starts at
 /// `object_start`, by default its pose at frame 0.
@@ -786,17 +934,7 @@ fn run_replay(
     params: &Params,
     object_start: Option<&nalgebra::Isometry3<f64>>,
 ) -> Result<(replay::Trace, f64)> {
-    let fixed: Vec<FixedItem<'_>> = supports
-        .iter()
-        .map(|(_, s)| FixedItem {
-            shape: s,
-            tag: Tag::Support,
-        })
-        .chain(solid.iter().map(|(_, s)| FixedItem {
-            shape: s,
-            tag: Tag::Barrier,
-        }))
-        .collect();
+    let fixed = fixed_items(supports, solid);
     let n = replay::steps_per_frame(demo.fps, params.max_dt_s);
     let t_replay = Instant::now();
     let mut link_poses = robot.new_link_poses();
@@ -815,22 +953,69 @@ fn run_replay(
         1.0 / (n as f64 * demo.fps),
         Vector3::from(params.gravity),
     )?;
-    let shortcuts = replay::Shortcuts {
-        rest: params.skip_rest,
-        rests_at_start: params.skip_rest
-            && checks::nearest_support(object, start, &named(supports))
-                .is_some_and(|(_, gap)| gap <= params.support_gap_m),
-        drop: demo
-            .contact_segment()
-            .filter(|_| params.stop_after_drop)
-            .map(|segment| replay::DropStop {
-                segment,
-                error_m: params.drop_error_m,
-                window: drop_window(demo.fps),
-            }),
-    };
+    let shortcuts = shortcuts(demo, object, start, supports, params);
     let trace = replay::replay(robot, demo, &mut world, n, &shortcuts);
     Ok((trace, t_replay.elapsed().as_secs_f64()))
+}
+
+/// Most ensemble members replayed in one shared world ([`ReplayWorld::shared`]): the default
+/// ensemble's first batch (members 1 to 6) in one.
+const SHARED_MEMBERS: usize = 8;
+
+/// Replays the trajectories `demos` (members of one ensemble: the same frames; each with its
+/// parameters `member_params` and object start `starts`) with the kinematic hand in one
+/// shared world: their traces, in order. `params` gives what they share (step, solver,
+/// gravity).
+fn run_shared_replay(
+    robot: &Robot,
+    demos: &[Demo],
+    member_params: &[Params],
+    starts: &[nalgebra::Isometry3<f64>],
+    object: &ObjectShape,
+    supports: &[(String, CollisionShape)],
+    solid: &[(String, CollisionShape)],
+    params: &Params,
+) -> Vec<replay::Trace> {
+    let fixed = fixed_items(supports, solid);
+    let fps = demos[0].fps;
+    let n = replay::steps_per_frame(fps, params.max_dt_s);
+    let link_poses: Vec<Vec<nalgebra::Isometry3<f64>>> = demos
+        .iter()
+        .map(|d| {
+            let mut poses = robot.new_link_poses();
+            robot.forward_kinematics(&d.frames[0].wrist, &d.frames[0].joints, &mut poses);
+            poses
+        })
+        .collect();
+    let member_starts: Vec<world::MemberStart<'_>> = demos
+        .iter()
+        .zip(member_params)
+        .zip(starts)
+        .zip(&link_poses)
+        .map(|(((d, p), start), poses)| world::MemberStart {
+            link_poses: poses,
+            object_pose: *start,
+            mass: d.object.mass,
+            hand_friction: p.hand_friction,
+            finger_skin_m: p.finger_skin_m,
+        })
+        .collect();
+    let mut world = ReplayWorld::shared(
+        robot,
+        &member_starts,
+        object,
+        &fixed,
+        params,
+        1.0 / (n as f64 * fps),
+        Vector3::from(params.gravity),
+    );
+    let shortcuts: Vec<replay::Shortcuts> = demos
+        .iter()
+        .zip(member_params)
+        .zip(starts)
+        .map(|((d, p), start)| shortcuts(d, object, start, supports, p))
+        .collect();
+    replay::replay_shared(robot, demos, &mut world, n, &shortcuts)
 }
 
 /// Frames after a drop's first frame in which the hand's contact is read (0.2 s).

@@ -84,6 +84,14 @@ pub struct Params {
     /// Solver iterations per step (Rapier's `num_solver_iterations`, which are substeps);
     /// default 4 (Rapier's default; 8 changed the gripper's tracking error by < 0.1 mm).
     pub solver_iterations: usize,
+    /// Rapier's stabilization passes per substep (`num_internal_stabilization_iterations`: a
+    /// solve without the penetration bias, after the biased one); default 1 (Rapier's).
+    pub stabilization_iterations: usize,
+    /// How far apart [m] two colliders start to make contacts (Rapier's prediction distance,
+    /// `normalized_prediction_distance` at a length unit of 1 m; the hand's contact skin comes
+    /// on top); default 0.02 (Rapier's). Contacts within it but apart keep the bodies from
+    /// closing the gap faster than it within a step.
+    pub prediction_distance_m: f64,
     /// Rapier's contact recycling (reuse of a pair's contacts while it moved less than
     /// 5 cm); default `false`. Fingers slide along objects by centimetres, and recycled
     /// contacts keep stale normals: open gripper jaws passing 10 mm beside a box pushed it
@@ -183,6 +191,8 @@ impl Default for Params {
         Params {
             max_dt_s: 1.0 / 240.0,
             solver_iterations: 4,
+            stabilization_iterations: 1,
+            prediction_distance_m: 0.02,
             contact_recycling: false,
             solver_contact_gap_m: None,
             gravity: [0.0, 0.0, -9.81],
@@ -250,6 +260,7 @@ impl Params {
             }
         };
         positive("max_dt_s", self.max_dt_s)?;
+        positive("prediction_distance_m", self.prediction_distance_m)?;
         if let Some(gap) = self.solver_contact_gap_m {
             non_negative("solver_contact_gap_m", gap)?;
         }
@@ -315,6 +326,16 @@ impl Params {
                 path,
                 "solver_iterations",
                 "is 0; expected at least 1",
+            ));
+        }
+        if self.solver_iterations > 64 || self.stabilization_iterations > 64 {
+            return Err(Error::invalid(
+                path,
+                "solver_iterations",
+                format!(
+                    "is {} (stabilization_iterations {}); expected at most 64 each",
+                    self.solver_iterations, self.stabilization_iterations
+                ),
             ));
         }
         self.ensemble.check()?;

@@ -181,9 +181,9 @@ fn at_rest(touched: bool, then: &Isometry3<f64>, now: &Isometry3<f64>) -> bool {
 }
 
 impl StepProfile {
-    /// Counts one step; whether a hand link touched the object after it.
-    fn record(&mut self, world: &ReplayWorld, seconds: f64) -> bool {
-        let c = world.object_contacts();
+    /// Counts one step of member `m`; whether a hand link touched its object after it.
+    fn record(&mut self, world: &ReplayWorld, m: usize, seconds: f64) -> bool {
+        let c = world.member_object_contacts(m);
         self.steps += 1;
         self.hand_manifolds += c.hand_manifolds;
         self.hand_points += c.hand_points;
@@ -192,7 +192,7 @@ impl StepProfile {
         if c.hand_points > 0 {
             self.hand_contact_steps += 1;
             self.times.hand_contact_s += seconds;
-        } else if world.object_speed() < IDLE_SPEED_M_S {
+        } else if world.member_object_speed(m) < IDLE_SPEED_M_S {
             self.idle_steps += 1;
             self.times.idle_s += seconds;
         } else {
@@ -233,59 +233,116 @@ pub fn hand_between(
     );
 }
 
-/// Replays `demo` in `world` (built with the hand at frame 0) with `n` steps per frame,
-/// leaving out what `shortcuts` allows.
-pub fn replay(
-    robot: &Robot,
-    demo: &Demo,
-    world: &mut ReplayWorld,
-    n: usize,
-    shortcuts: &Shortcuts,
-) -> Trace {
-    let frames = &demo.frames;
-    let mut trace = Trace {
-        steps_per_frame: n,
-        dt_s: 1.0 / (n as f64 * demo.fps),
-        ..Trace::default()
-    };
-    trace.object.reserve(frames.len());
-    trace.object.push(world.object_pose());
-    trace.speed_m_s.push(world.object_speed());
-    trace.grip.reserve(frames.len());
-    trace.grip.push(GripSample::default());
-    let reach = world.rest_reach().filter(|_| shortcuts.rest);
-    let mut q = vec![0.0; robot.dof()];
-    let mut link_poses = robot.new_link_poses();
-    // The hand where the world was built: the poses `previous` holds at the first step.
-    robot.forward_kinematics(&frames[0].wrist, &frames[0].joints, &mut link_poses);
-    let mut previous = link_poses.clone();
-    // The last frame of the settling of an object that starts on a support.
-    let settled = (shortcuts.rests_at_start && reach.is_some())
-        .then(|| ((SETTLE_S * demo.fps).ceil() as usize).max(1));
-    let mut resting = false;
-    let (mut ever_touched, mut came_to_rest) = (false, false);
-    let mut dropped_at = None;
-    for i in 1..frames.len() {
-        let (a, b) = (&frames[i - 1], &frames[i]);
-        let mut touched = false;
-        for k in 1..=n {
-            let clock = Instant::now();
-            std::mem::swap(&mut previous, &mut link_poses);
-            hand_between(robot, a, b, k as f64 / n as f64, &mut q, &mut link_poses);
-            if let Some(reach) = reach.filter(|_| resting) {
-                if !world.hand_within(&link_poses, reach) {
-                    trace.skipped_steps += 1;
-                    continue;
-                }
-                world.place_hand(&previous);
-                resting = false;
-            }
-            world.drive_hand(&link_poses, &q);
-            world.step();
-            trace.steps += 1;
-            touched |= trace.profile.record(world, clock.elapsed().as_secs_f64());
+/// One trajectory's replay in progress: member `m` of its world.
+struct Run<'a> {
+    demo: &'a Demo,
+    m: usize,
+    shortcuts: Shortcuts,
+    trace: Trace,
+    /// The hand's reach while the object rests (`None`: every step is taken).
+    reach: Option<f64>,
+    q: Vec<f64>,
+    link_poses: Vec<Isometry3<f64>>,
+    /// The hand at the previous step.
+    previous: Vec<Isometry3<f64>>,
+    /// The last frame of the settling of an object that starts on a support.
+    settled: Option<usize>,
+    resting: bool,
+    ever_touched: bool,
+    came_to_rest: bool,
+    /// A hand link touched the object in the current frame interval.
+    touched: bool,
+    dropped_at: Option<usize>,
+}
+
+impl<'a> Run<'a> {
+    fn new(
+        robot: &Robot,
+        demo: &'a Demo,
+        world: &ReplayWorld,
+        m: usize,
+        n: usize,
+        shortcuts: &Shortcuts,
+    ) -> Run<'a> {
+        let frames = &demo.frames;
+        let mut trace = Trace {
+            steps_per_frame: n,
+            dt_s: 1.0 / (n as f64 * demo.fps),
+            ..Trace::default()
+        };
+        trace.object.reserve(frames.len());
+        trace.object.push(world.member_object_pose(m));
+        trace.speed_m_s.push(world.member_object_speed(m));
+        trace.grip.reserve(frames.len());
+        trace.grip.push(GripSample::default());
+        let reach = world.member_rest_reach(m).filter(|_| shortcuts.rest);
+        let mut link_poses = robot.new_link_poses();
+        // The hand where the world was built: the poses `previous` holds at the first step.
+        robot.forward_kinematics(&frames[0].wrist, &frames[0].joints, &mut link_poses);
+        Run {
+            demo,
+            m,
+            shortcuts: *shortcuts,
+            trace,
+            reach,
+            q: vec![0.0; robot.dof()],
+            previous: link_poses.clone(),
+            link_poses,
+            settled: (shortcuts.rests_at_start && reach.is_some())
+                .then(|| ((SETTLE_S * demo.fps).ceil() as usize).max(1)),
+            resting: false,
+            ever_touched: false,
+            came_to_rest: false,
+            touched: false,
+            dropped_at: None,
         }
-        let pose = world.object_pose();
+    }
+
+    /// Sets the hand for step `k` of `n` of the interval ending at frame `i`: whether the
+    /// member is stepped (not while its object rests out of the hand's reach).
+    fn drive(
+        &mut self,
+        robot: &Robot,
+        world: &mut ReplayWorld,
+        i: usize,
+        k: usize,
+        n: usize,
+    ) -> bool {
+        let (a, b) = (&self.demo.frames[i - 1], &self.demo.frames[i]);
+        std::mem::swap(&mut self.previous, &mut self.link_poses);
+        hand_between(
+            robot,
+            a,
+            b,
+            k as f64 / n as f64,
+            &mut self.q,
+            &mut self.link_poses,
+        );
+        if let Some(reach) = self.reach.filter(|_| self.resting) {
+            if !world.member_hand_within(self.m, &self.link_poses, reach) {
+                self.trace.skipped_steps += 1;
+                return false;
+            }
+            world.place_member_hand(self.m, &self.previous);
+            self.resting = false;
+        }
+        world.drive_member_hand(self.m, &self.link_poses, &self.q);
+        true
+    }
+
+    /// Counts a step taken, of `seconds`.
+    fn stepped(&mut self, world: &ReplayWorld, seconds: f64) {
+        self.trace.steps += 1;
+        self.touched |= self.trace.profile.record(world, self.m, seconds);
+    }
+
+    /// Records frame `i` at the end of its interval: `false` when the replay ends there (the
+    /// object's pose is not finite, or a drop is decided).
+    fn end_frame(&mut self, world: &mut ReplayWorld, i: usize) -> bool {
+        let frames = &self.demo.frames;
+        let trace = &mut self.trace;
+        let touched = std::mem::take(&mut self.touched);
+        let pose = world.member_object_pose(self.m);
         let finite = pose.translation.vector.iter().all(|c| c.is_finite())
             && pose.rotation.coords.iter().all(|c| c.is_finite());
         if !finite {
@@ -295,37 +352,118 @@ pub fn replay(
             trace.object.resize(frames.len(), last);
             trace.speed_m_s.resize(frames.len(), 0.0);
             trace.grip.resize(frames.len(), GripSample::default());
-            break;
+            return false;
         }
         let still = at_rest(touched, &trace.object[i - 1], &pose);
-        ever_touched |= touched;
-        came_to_rest |= still;
-        resting = if ever_touched {
-            reach.is_some() && still
-        } else if settled == Some(i)
-            && !came_to_rest
+        self.ever_touched |= touched;
+        self.came_to_rest |= still;
+        self.resting = if self.ever_touched {
+            self.reach.is_some() && still
+        } else if self.settled == Some(i)
+            && !self.came_to_rest
             && !touched
-            && reach.is_some_and(|r| !world.hand_within(&link_poses, r))
+            && self
+                .reach
+                .is_some_and(|r| !world.member_hand_within(self.m, &self.link_poses, r))
         {
             // Untouched and still moving after the settling time: held at rest from here
             // until a hand comes, with no speed to resume from. A hand already within reach
             // is about to touch it: holding it then would change the run and leave nothing
             // out.
-            world.stop_object();
-            reach.is_some()
+            world.stop_member_object(self.m);
+            self.reach.is_some()
         } else {
-            resting
+            self.resting
         };
         trace.object.push(pose);
-        trace.speed_m_s.push(world.object_speed());
-        trace.grip.push(world.grip());
-        if let Some(stop) = &shortcuts.drop
-            && stop.decided(demo, i, &pose, &mut dropped_at)
+        trace.speed_m_s.push(world.member_object_speed(self.m));
+        trace.grip.push(world.member_grip(self.m));
+        if let Some(stop) = &self.shortcuts.drop
+            && stop.decided(self.demo, i, &pose, &mut self.dropped_at)
             && i + 1 < frames.len()
         {
             trace.stopped_at = Some(i);
+            return false;
+        }
+        true
+    }
+}
+
+/// Replays `demo` in `world` (built with the hand at frame 0) with `n` steps per frame,
+/// leaving out what `shortcuts` allows.
+pub fn replay(
+    robot: &Robot,
+    demo: &Demo,
+    world: &mut ReplayWorld,
+    n: usize,
+    shortcuts: &Shortcuts,
+) -> Trace {
+    let mut run = Run::new(robot, demo, world, 0, n, shortcuts);
+    for i in 1..demo.frames.len() {
+        for k in 1..=n {
+            let clock = Instant::now();
+            if run.drive(robot, world, i, k, n) {
+                world.step();
+                run.stepped(world, clock.elapsed().as_secs_f64());
+            }
+        }
+        if !run.end_frame(world, i) {
             break;
         }
     }
-    trace
+    run.trace
+}
+
+/// Replays `demos[m]` as member `m` of the shared `world` ([`ReplayWorld::shared`], built with
+/// each hand at its frame 0), all at once: one step advances every member that is stepped.
+/// The same rules as [`replay`] apply to each member, with one difference: a member whose
+/// object rests out of its hand's reach is left out of the steps
+/// ([`ReplayWorld::set_stepped`]) rather than the world left unstepped, and one whose replay
+/// ended (a decided drop, a diverged step) is left out from there. The demonstrations must
+/// have the same frames and frame rate (members of one ensemble).
+pub fn replay_shared(
+    robot: &Robot,
+    demos: &[Demo],
+    world: &mut ReplayWorld,
+    n: usize,
+    shortcuts: &[Shortcuts],
+) -> Vec<Trace> {
+    debug_assert_eq!(demos.len(), world.member_count());
+    let mut runs: Vec<Run<'_>> = demos
+        .iter()
+        .zip(shortcuts)
+        .enumerate()
+        .map(|(m, (demo, s))| Run::new(robot, demo, world, m, n, s))
+        .collect();
+    let frames = demos.iter().map(|d| d.frames.len()).min().unwrap_or(0);
+    let mut ended = vec![false; runs.len()];
+    let mut stepped = vec![false; runs.len()];
+    for i in 1..frames {
+        for k in 1..=n {
+            let clock = Instant::now();
+            for (m, run) in runs.iter_mut().enumerate() {
+                stepped[m] = !ended[m] && run.drive(robot, world, i, k, n);
+                world.set_stepped(m, stepped[m]);
+            }
+            let count = stepped.iter().filter(|s| **s).count();
+            if count == 0 {
+                continue;
+            }
+            world.step();
+            let seconds = clock.elapsed().as_secs_f64() / count as f64;
+            for (run, _) in runs.iter_mut().zip(&stepped).filter(|(_, s)| **s) {
+                run.stepped(world, seconds);
+            }
+        }
+        for (m, run) in runs.iter_mut().enumerate() {
+            if !ended[m] && !run.end_frame(world, i) {
+                ended[m] = true;
+                world.set_stepped(m, false);
+            }
+        }
+        if ended.iter().all(|e| *e) {
+            break;
+        }
+    }
+    runs.into_iter().map(|r| r.trace).collect()
 }

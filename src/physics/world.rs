@@ -26,8 +26,8 @@ use nalgebra::{Isometry3, Vector3};
 use rapier3d_f64::parry::bounding_volume::BoundingVolume;
 use rapier3d_f64::prelude::{
     ActiveHooks, CoefficientCombineRule, ColliderBuilder, ColliderHandle,
-    ContactModificationContext, ContactPair, IntegrationParameters, PhysicsHooks, PhysicsWorld,
-    RigidBodyBuilder, RigidBodyHandle,
+    ContactModificationContext, ContactPair, Group, IntegrationParameters, InteractionGroups,
+    InteractionTestMode, PhysicsHooks, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
 };
 
 use super::actuated::ActuatedHand;
@@ -77,17 +77,27 @@ enum HandDrive {
     Actuated(ActuatedHand),
 }
 
-/// The replay world (see the module docs).
+/// One trajectory's bodies in the world: its hand and its object.
+#[derive(Debug)]
+struct Member {
+    hand: HandDrive,
+    /// The object's body.
+    object: RigidBodyHandle,
+    /// The object's collider.
+    object_collider: ColliderHandle,
+    /// The hand colliders' contact skin [m].
+    finger_skin_m: f64,
+    /// Whether the member's bodies take part in the steps ([`ReplayWorld::set_stepped`]).
+    stepped: bool,
+}
+
+/// The replay world (see the module docs): one trajectory, or several sharing one Rapier
+/// world ([`ReplayWorld::shared`]).
 pub struct ReplayWorld {
     /// All Rapier state (public for tests and diagnostics).
     pub world: PhysicsWorld,
-    hand: HandDrive,
-    /// The object's body.
-    pub object: RigidBodyHandle,
-    /// The object's collider.
-    pub object_collider: ColliderHandle,
-    /// The hand colliders' contact skin [m].
-    finger_skin_m: f64,
+    /// The trajectories replayed; the methods without a member index act on the first.
+    members: Vec<Member>,
     /// The opt-in solver cut ([`Params::solver_contact_gap_m`]).
     hooks: SolverCut,
 }
@@ -95,11 +105,32 @@ pub struct ReplayWorld {
 impl std::fmt::Debug for ReplayWorld {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ReplayWorld")
-            .field("hand", &self.hand)
-            .field("object", &self.object)
+            .field("members", &self.members)
             .finish_non_exhaustive()
     }
 }
+
+/// Where one trajectory of a shared world starts, and what its replay varies: the kinematic
+/// hand's friction and skin, the object's mass.
+#[derive(Clone, Debug)]
+pub struct MemberStart<'a> {
+    /// The hand's link poses at frame 0.
+    pub link_poses: &'a [Isometry3<f64>],
+    /// The object's pose at the start.
+    pub object_pose: Isometry3<f64>,
+    /// The object's mass [kg].
+    pub mass: f64,
+    /// Hand-object friction ([`Params::hand_friction`]).
+    pub hand_friction: f64,
+    /// The hand colliders' contact skin [m] ([`Params::finger_skin_m`]).
+    pub finger_skin_m: f64,
+}
+
+/// Most trajectories one shared world holds: one collision group each, one for the scene.
+pub const MAX_SHARED: usize = 31;
+
+/// The collision group of the scene's fixed items in a shared world.
+const SCENE_GROUP: u32 = 1 << 31;
 
 impl ReplayWorld {
     /// A world with the kinematic hand at `link_poses`, the object at `object_pose` and the
@@ -115,29 +146,106 @@ impl ReplayWorld {
         dt: f64,
         gravity: Vector3<f64>,
     ) -> ReplayWorld {
-        let mut world = empty_world(params, dt, gravity);
-        let mut hand = Vec::new();
-        for (i, link) in robot.links().iter().enumerate() {
-            if link.collision.is_empty() {
-                continue;
-            }
-            let body = world.insert_body(
-                RigidBodyBuilder::kinematic_position_based().pose(to_pose(&link_poses[i])),
-            );
-            for cs in &link.collision {
-                world.insert_collider(hand_collider(cs, params), Some(body));
-            }
-            hand.push(HandBody { link: i, body });
-        }
-        with_object_and_scene(
-            world,
-            HandDrive::Kinematic(hand),
-            object,
-            object_pose,
+        let start = MemberStart {
+            link_poses,
+            object_pose: *object_pose,
             mass,
-            fixed,
-            params,
-        )
+            hand_friction: params.hand_friction,
+            finger_skin_m: params.finger_skin_m,
+        };
+        ReplayWorld::shared(robot, &[start], object, fixed, params, dt, gravity)
+    }
+
+    /// Several trajectories of one hand and one object in one world, each with a kinematic
+    /// hand and an object of its own that meet only each other and the fixed items (one
+    /// collision group each), so that one step advances them all. What they share is the
+    /// solver's work: Rapier solves the contacts of one island a colour at a time, four
+    /// body-disjoint manifolds to a SIMD chunk, and the manifolds of one object can never
+    /// share a chunk; those of different objects can. At most [`MAX_SHARED`] members; one
+    /// member gives the world of [`ReplayWorld::new`], body for body.
+    pub fn shared(
+        robot: &Robot,
+        starts: &[MemberStart<'_>],
+        object: &ObjectShape,
+        fixed: &[FixedItem<'_>],
+        params: &Params,
+        dt: f64,
+        gravity: Vector3<f64>,
+    ) -> ReplayWorld {
+        assert!(
+            (1..=MAX_SHARED).contains(&starts.len()),
+            "a shared world holds 1 to {MAX_SHARED} members"
+        );
+        let grouped = starts.len() > 1;
+        let mut world = empty_world(params, dt, gravity);
+        let mut members = Vec::with_capacity(starts.len());
+        for (m, start) in starts.iter().enumerate() {
+            let groups = grouped.then(|| {
+                let own = Group::from_bits_truncate(1 << m);
+                (
+                    InteractionGroups::new(own, own, InteractionTestMode::And),
+                    InteractionGroups::new(
+                        own,
+                        own | Group::from_bits_truncate(SCENE_GROUP),
+                        InteractionTestMode::And,
+                    ),
+                )
+            });
+            let member_params = Params {
+                hand_friction: start.hand_friction,
+                finger_skin_m: start.finger_skin_m,
+                ..params.clone()
+            };
+            let mut hand = Vec::new();
+            for (i, link) in robot.links().iter().enumerate() {
+                if link.collision.is_empty() {
+                    continue;
+                }
+                let body = world.insert_body(
+                    RigidBodyBuilder::kinematic_position_based()
+                        .pose(to_pose(&start.link_poses[i])),
+                );
+                for cs in &link.collision {
+                    let mut collider = hand_collider(cs, &member_params);
+                    if let Some((hand_groups, _)) = groups {
+                        collider = collider.collision_groups(hand_groups);
+                    }
+                    world.insert_collider(collider, Some(body));
+                }
+                hand.push(HandBody { link: i, body });
+            }
+            let (object_body, object_collider) = insert_object(
+                &mut world,
+                object,
+                &start.object_pose,
+                start.mass,
+                params,
+                groups.map(|(_, g)| g),
+            );
+            members.push(Member {
+                hand: HandDrive::Kinematic(hand),
+                object: object_body,
+                object_collider,
+                finger_skin_m: start.finger_skin_m,
+                stepped: true,
+            });
+        }
+        let scene_groups = grouped.then(|| {
+            InteractionGroups::new(
+                Group::from_bits_truncate(SCENE_GROUP),
+                Group::ALL,
+                InteractionTestMode::And,
+            )
+        });
+        insert_fixed(&mut world, fixed, params, scene_groups);
+        ReplayWorld {
+            hooks: SolverCut {
+                gap_m: params.solver_contact_gap_m.unwrap_or(f64::INFINITY),
+                dt: world.integration_parameters.dt,
+            },
+            world,
+            members,
+        }
     }
 
     /// A world like [`ReplayWorld::new`] with the hand model `params.hand`: the actuated
@@ -174,24 +282,42 @@ impl ReplayWorld {
                 let hand = ActuatedHand::build(&mut world, robot, link_poses, q0, params, |cs| {
                     hand_collider(cs, params)
                 });
-                Ok(with_object_and_scene(
+                let (object_body, object_collider) =
+                    insert_object(&mut world, object, object_pose, mass, params, None);
+                insert_fixed(&mut world, fixed, params, None);
+                Ok(ReplayWorld {
+                    hooks: SolverCut {
+                        gap_m: params.solver_contact_gap_m.unwrap_or(f64::INFINITY),
+                        dt: world.integration_parameters.dt,
+                    },
                     world,
-                    HandDrive::Actuated(hand),
-                    object,
-                    object_pose,
-                    mass,
-                    fixed,
-                    params,
-                ))
+                    members: vec![Member {
+                        hand: HandDrive::Actuated(hand),
+                        object: object_body,
+                        object_collider,
+                        finger_skin_m: params.finger_skin_m,
+                        stepped: true,
+                    }],
+                })
             }
         }
+    }
+
+    /// The trajectories in the world.
+    pub fn member_count(&self) -> usize {
+        self.members.len()
     }
 
     /// Sets the trajectory's hand for the end of the next step: link poses `link_poses`,
     /// from joint values `q`. The kinematic hand's links reach them; the actuated hand's
     /// anchor and motor targets move there.
     pub fn drive_hand(&mut self, link_poses: &[Isometry3<f64>], q: &[f64]) {
-        match &self.hand {
+        self.drive_member_hand(0, link_poses, q);
+    }
+
+    /// [`ReplayWorld::drive_hand`] for member `m`.
+    pub fn drive_member_hand(&mut self, m: usize, link_poses: &[Isometry3<f64>], q: &[f64]) {
+        match &self.members[m].hand {
             HandDrive::Kinematic(hand) => {
                 for h in hand {
                     if let Some(b) = self.world.bodies.get_mut(h.body) {
@@ -203,10 +329,31 @@ impl ReplayWorld {
         }
     }
 
+    /// Whether member `m`'s bodies take part in the next steps. A member left out keeps its
+    /// object's pose and velocity and its hand where it was, as if its own world were left
+    /// unstepped (`replay.rs`); taken back, its contacts are found anew.
+    pub fn set_stepped(&mut self, m: usize, stepped: bool) {
+        let member = &mut self.members[m];
+        if member.stepped == stepped {
+            return;
+        }
+        member.stepped = stepped;
+        let mut bodies = vec![member.object];
+        match &member.hand {
+            HandDrive::Kinematic(hand) => bodies.extend(hand.iter().map(|h| h.body)),
+            HandDrive::Actuated(hand) => bodies.extend(hand.bodies.iter().copied()),
+        }
+        for handle in bodies {
+            if let Some(b) = self.world.bodies.get_mut(handle) {
+                b.set_enabled(stepped);
+            }
+        }
+    }
+
     /// The simulated world pose of the hand's link `link` (index into the robot's links);
     /// `None` for a link without a body (the kinematic hand's links without collision).
     pub fn hand_link_pose(&self, link: usize) -> Option<Isometry3<f64>> {
-        let body = match &self.hand {
+        let body = match &self.members[0].hand {
             HandDrive::Kinematic(hand) => hand.iter().find(|h| h.link == link)?.body,
             HandDrive::Actuated(hand) => *hand.bodies.get(link)?,
         };
@@ -218,9 +365,15 @@ impl ReplayWorld {
     /// distance and [`super::replay::REST_REACH_MARGIN_M`]. `None` for the actuated hand,
     /// whose dynamic links need every step.
     pub fn rest_reach(&self) -> Option<f64> {
-        match self.hand {
+        self.member_rest_reach(0)
+    }
+
+    /// [`ReplayWorld::rest_reach`] for member `m`.
+    pub fn member_rest_reach(&self, m: usize) -> Option<f64> {
+        let member = &self.members[m];
+        match member.hand {
             HandDrive::Kinematic(_) => Some(
-                self.finger_skin_m
+                member.finger_skin_m
                     + self.world.integration_parameters.prediction_distance()
                     + super::replay::REST_REACH_MARGIN_M,
             ),
@@ -232,10 +385,16 @@ impl ReplayWorld {
     /// `reach` [m] of the object's (the object at its current pose). Always `true` for the
     /// actuated hand.
     pub fn hand_within(&self, link_poses: &[Isometry3<f64>], reach: f64) -> bool {
-        let HandDrive::Kinematic(hand) = &self.hand else {
+        self.member_hand_within(0, link_poses, reach)
+    }
+
+    /// [`ReplayWorld::hand_within`] for member `m`.
+    pub fn member_hand_within(&self, m: usize, link_poses: &[Isometry3<f64>], reach: f64) -> bool {
+        let member = &self.members[m];
+        let HandDrive::Kinematic(hand) = &member.hand else {
             return true;
         };
-        let object = self.world.colliders[self.object_collider]
+        let object = self.world.colliders[member.object_collider]
             .compute_aabb()
             .loosened(reach);
         hand.iter().any(|h| {
@@ -255,7 +414,12 @@ impl ReplayWorld {
     /// Places the kinematic hand's links at `link_poses` at once (no motion through the
     /// world, zero velocity); the actuated hand is left as it is.
     pub fn place_hand(&mut self, link_poses: &[Isometry3<f64>]) {
-        if let HandDrive::Kinematic(hand) = &self.hand {
+        self.place_member_hand(0, link_poses);
+    }
+
+    /// [`ReplayWorld::place_hand`] for member `m`.
+    pub fn place_member_hand(&mut self, m: usize, link_poses: &[Isometry3<f64>]) {
+        if let HandDrive::Kinematic(hand) = &self.members[m].hand {
             for h in hand {
                 if let Some(b) = self.world.bodies.get_mut(h.body) {
                     b.set_position(to_pose(&link_poses[h.link]), false);
@@ -266,7 +430,12 @@ impl ReplayWorld {
 
     /// Sets the object's linear and angular velocity to zero (an object declared at rest).
     pub fn stop_object(&mut self) {
-        if let Some(b) = self.world.bodies.get_mut(self.object) {
+        self.stop_member_object(0);
+    }
+
+    /// [`ReplayWorld::stop_object`] for member `m`.
+    pub fn stop_member_object(&mut self, m: usize) {
+        if let Some(b) = self.world.bodies.get_mut(self.members[m].object) {
             b.set_linvel(Default::default(), false);
             b.set_angvel(Default::default(), false);
         }
@@ -279,20 +448,32 @@ impl ReplayWorld {
 
     /// The object's world pose.
     pub fn object_pose(&self) -> Isometry3<f64> {
-        from_pose(self.world.bodies[self.object].position())
+        self.member_object_pose(0)
+    }
+
+    /// [`ReplayWorld::object_pose`] for member `m`.
+    pub fn member_object_pose(&self, m: usize) -> Isometry3<f64> {
+        from_pose(self.world.bodies[self.members[m].object].position())
     }
 
     /// The object's linear speed [m/s].
     pub fn object_speed(&self) -> f64 {
-        self.world.bodies[self.object].linvel().length()
+        self.member_object_speed(0)
     }
 
-    /// The object's contact pairs, each with whether its other collider is a hand link.
-    fn object_pairs(&self) -> impl Iterator<Item = (&ContactPair, bool)> {
+    /// [`ReplayWorld::object_speed`] for member `m`.
+    pub fn member_object_speed(&self, m: usize) -> f64 {
+        self.world.bodies[self.members[m].object].linvel().length()
+    }
+
+    /// Member `m`'s object's contact pairs, each with whether its other collider is a hand
+    /// link.
+    fn object_pairs(&self, m: usize) -> impl Iterator<Item = (&ContactPair, bool)> {
+        let object_collider = self.members[m].object_collider;
         self.world
-            .contact_pairs_with(self.object_collider)
-            .map(|pair| {
-                let other = if pair.collider1 == self.object_collider {
+            .contact_pairs_with(object_collider)
+            .map(move |pair| {
+                let other = if pair.collider1 == object_collider {
                     pair.collider2
                 } else {
                     pair.collider1
@@ -308,10 +489,15 @@ impl ReplayWorld {
 
     /// The object's contacts after the last step, counted for the replay's profile.
     pub fn object_contacts(&self) -> ObjectContacts {
+        self.member_object_contacts(0)
+    }
+
+    /// [`ReplayWorld::object_contacts`] for member `m`.
+    pub fn member_object_contacts(&self, m: usize) -> ObjectContacts {
         let mut c = ObjectContacts::default();
-        for (pair, is_hand) in self.object_pairs() {
-            for m in pair.manifolds() {
-                let points = m.points.len();
+        for (pair, is_hand) in self.object_pairs(m) {
+            for manifold in pair.manifolds() {
+                let points = manifold.points.len();
                 if points == 0 {
                     continue;
                 }
@@ -335,18 +521,23 @@ impl ReplayWorld {
     /// colliders' contact skin ([`Params::finger_skin_m`]): the solver pushes until the
     /// rigid distance is `skin`, so a point at distance `d` is compressed by `skin − d`.
     pub fn grip(&self) -> GripSample {
-        let skin = self.finger_skin_m;
+        self.member_grip(0)
+    }
+
+    /// [`ReplayWorld::grip`] for member `m`.
+    pub fn member_grip(&self, m: usize) -> GripSample {
+        let skin = self.members[m].finger_skin_m;
         let dt = self.world.integration_parameters.dt;
         let mut g = GripSample::default();
         if dt <= 0.0 {
             return g;
         }
-        for (pair, is_hand) in self.object_pairs() {
+        for (pair, is_hand) in self.object_pairs(m) {
             if !is_hand {
                 continue;
             }
-            for m in pair.solver_manifolds() {
-                for pt in m.contacts() {
+            for manifold in pair.solver_manifolds() {
+                for pt in manifold.contacts() {
                     // A diverged step (reported by the replay) adds nothing, never a NaN.
                     let force = pt.data.impulse.max(0.0) / dt;
                     if force == 0.0 || !force.is_finite() {
@@ -390,6 +581,8 @@ fn empty_world(params: &Params, dt: f64, gravity: Vector3<f64>) -> PhysicsWorld 
         integration_parameters: IntegrationParameters {
             dt,
             num_solver_iterations: params.solver_iterations,
+            num_internal_stabilization_iterations: params.stabilization_iterations,
+            normalized_prediction_distance: params.prediction_distance_m,
             contact_recycling: params.contact_recycling,
             ..IntegrationParameters::default()
         },
@@ -450,49 +643,51 @@ impl PhysicsHooks for SolverCut {
     }
 }
 
-/// Adds the dynamic object and the fixed items to a world holding the hand.
-fn with_object_and_scene(
-    mut world: PhysicsWorld,
-    hand: HandDrive,
+/// Adds the dynamic object at `pose` with mass `mass` (in `groups` when given): its body and
+/// collider.
+fn insert_object(
+    world: &mut PhysicsWorld,
     object: &ObjectShape,
-    object_pose: &Isometry3<f64>,
+    pose: &Isometry3<f64>,
     mass: f64,
-    fixed: &[FixedItem<'_>],
     params: &Params,
-) -> ReplayWorld {
+    groups: Option<InteractionGroups>,
+) -> (RigidBodyHandle, ColliderHandle) {
     // What Rapier's `.mass(mass)` computes (unit-density properties scaled to the mass),
     // from the parts' properties computed once per object.
     let mut mass_properties = object.unit_mass;
     mass_properties.set_mass(mass, true);
-    let (object_body, object_collider) = world.insert(
-        RigidBodyBuilder::dynamic()
-            .pose(to_pose(object_pose))
-            .can_sleep(false),
-        ColliderBuilder::new(object.compound.clone())
-            .mass_properties(mass_properties)
-            .friction(params.object_friction)
-            .user_data(Tag::Object as u128),
-    );
-    for item in fixed {
-        world.insert(
-            RigidBodyBuilder::fixed(),
-            ColliderBuilder::new(item.shape.shape.clone())
-                .position(to_pose(&item.shape.shape_pose))
-                .friction(params.object_friction)
-                .user_data(item.tag as u128),
-        );
+    let mut collider = ColliderBuilder::new(object.compound.clone())
+        .mass_properties(mass_properties)
+        .friction(params.object_friction)
+        .user_data(Tag::Object as u128);
+    if let Some(groups) = groups {
+        collider = collider.collision_groups(groups);
     }
-    let hooks = SolverCut {
-        gap_m: params.solver_contact_gap_m.unwrap_or(f64::INFINITY),
-        dt: world.integration_parameters.dt,
-    };
-    ReplayWorld {
-        world,
-        hand,
-        object: object_body,
-        object_collider,
-        finger_skin_m: params.finger_skin_m,
-        hooks,
+    world.insert(
+        RigidBodyBuilder::dynamic()
+            .pose(to_pose(pose))
+            .can_sleep(false),
+        collider,
+    )
+}
+
+/// Adds the fixed items (in `groups` when given).
+fn insert_fixed(
+    world: &mut PhysicsWorld,
+    fixed: &[FixedItem<'_>],
+    params: &Params,
+    groups: Option<InteractionGroups>,
+) {
+    for item in fixed {
+        let mut collider = ColliderBuilder::new(item.shape.shape.clone())
+            .position(to_pose(&item.shape.shape_pose))
+            .friction(params.object_friction)
+            .user_data(item.tag as u128);
+        if let Some(groups) = groups {
+            collider = collider.collision_groups(groups);
+        }
+        world.insert(RigidBodyBuilder::fixed(), collider);
     }
 }
 

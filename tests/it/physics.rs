@@ -16,7 +16,7 @@ use dexwarp::geometry::shape::{CollisionShape, ShapeKind};
 use dexwarp::model::demo::ObjectInfo;
 use dexwarp::model::scene::ShapeJson;
 use dexwarp::model::{Contact, Demo, Frame, Role, Scene, SceneItem};
-use dexwarp::physics::world::{FixedItem, GripSample, ReplayWorld, Tag};
+use dexwarp::physics::world::{FixedItem, GripSample, MemberStart, ReplayWorld, Tag};
 use dexwarp::physics::{DropCause, Params, PhysicsReport, object_shape, validate};
 use dexwarp::robot::Robot;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
@@ -226,6 +226,86 @@ fn without_finger_skin_plates_at_the_surface_do_not_hold() {
         err > 0.1,
         "rigid plates at 0 overlap moved the cube within {:.1} mm of the lift; expected it to stay behind (> 100 mm)",
         err * 1e3
+    );
+}
+
+#[test]
+fn a_shared_world_keeps_its_members_apart() {
+    // Three members in one world, all starting in the same place: their cubes and hands
+    // overlap one another from the first step. Member 0's plates lift their cube 20 cm;
+    // member 1's stay on theirs without lifting; member 2 is left out of the steps after
+    // the first. Each must do what it would alone: no member's bodies touch another's.
+    let params = Params::single_replay();
+    let robot = plates(0.03);
+    let cube = object_shape(&box_mesh([0.06; 3]), &params.decomposition)
+        .unwrap()
+        .0;
+    let support = table();
+    let fixed = [FixedItem {
+        shape: &support,
+        tag: Tag::Support,
+    }];
+    let start = at(0.0, 0.0, 0.03);
+    let mut poses = robot.new_link_poses();
+    robot.forward_kinematics(&start, &[], &mut poses);
+    let member = |mass: f64| MemberStart {
+        link_poses: &poses,
+        object_pose: start,
+        mass,
+        hand_friction: params.hand_friction,
+        finger_skin_m: params.finger_skin_m,
+    };
+    let starts = [member(0.2), member(0.2), member(0.2)];
+    let mut world = ReplayWorld::shared(
+        &robot,
+        &starts,
+        &cube,
+        &fixed,
+        &params,
+        params.max_dt_s,
+        Vector3::from(params.gravity),
+    );
+    assert_eq!(world.member_count(), 3);
+    let rest_poses = poses.clone();
+    let (lift, hold) = (240, 120);
+    let mut left_out = None;
+    for k in 1..=lift + hold {
+        let z = 0.03 + 0.2 * smoothstep(k as f64 / lift as f64);
+        robot.forward_kinematics(&at(0.0, 0.0, z), &[], &mut poses);
+        world.drive_member_hand(0, &poses, &[]);
+        world.drive_member_hand(1, &rest_poses, &[]);
+        world.drive_member_hand(2, &rest_poses, &[]);
+        world.step();
+        if k == 1 {
+            world.set_stepped(2, false);
+            left_out = Some(world.member_object_pose(2));
+        }
+    }
+    let lifted =
+        (world.member_object_pose(0).translation.vector - Vector3::new(0.0, 0.0, 0.23)).norm();
+    let stayed = (world.member_object_pose(1).translation.vector - start.translation.vector).norm();
+    let alone = squeeze_lift(0.0, &params);
+    println!(
+        "shared world: lifted cube {:.3} mm off its plan (alone {:.3} mm), the held one {:.3} mm off its start",
+        lifted * 1e3,
+        alone * 1e3,
+        stayed * 1e3
+    );
+    assert!(
+        lifted < 0.001 && alone < 0.001,
+        "the lifted cube is {:.2} mm off its plan (alone {:.2} mm); expected < 1 mm, as alone",
+        lifted * 1e3,
+        alone * 1e3
+    );
+    assert!(
+        stayed < 0.001,
+        "the cube whose plates stayed moved {:.2} mm; expected < 1 mm: another member's bodies touched it",
+        stayed * 1e3
+    );
+    assert_eq!(
+        Some(world.member_object_pose(2)),
+        left_out,
+        "a member left out of the steps moved"
     );
 }
 
