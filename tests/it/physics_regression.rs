@@ -18,6 +18,14 @@
 //! demonstration, whose hand now comes within reach before the settling time, is why an
 //! untouched object is no longer held at rest with a hand already in reach).
 //!
+//! Each case also carries the default ensemble's verdict (K = 8, ensemble seed 0): passed of
+//! replayed, pass fraction, decision, uncertain. A change to the replay that reorders the
+//! solver's work (the shared worlds of the ensemble's members) moves single figures of the
+//! perturbed members but must not move a pass fraction by more than two ensembles can differ
+//! by chance (`physics::ensemble::dropped_significantly`, either way), nor turn a certain
+//! decision into the other certain one. The capture prints, for every case, the single
+//! replay's verdict beside the ensemble's decision.
+//!
 //! The hand-object penetration has its own tolerance field ([`Tolerances::hand_object_mm`]):
 //! its measurement is being replaced, and whoever replaces it re-captures with
 //! `DEXWARP_CAPTURE_PHYSICS=1 cargo test --test it physics_regression -- --nocapture`
@@ -28,6 +36,7 @@ use std::path::{Path, PathBuf};
 use dexwarp::Limits;
 use dexwarp::geometry::Mesh;
 use dexwarp::model::{Demo, Scene};
+use dexwarp::physics::ensemble::dropped_significantly;
 use dexwarp::physics::{Params, PhysicsReport, validate};
 use dexwarp::pipeline::{self, HandMethod, Inputs, Options};
 use dexwarp::robot::Robot;
@@ -77,6 +86,19 @@ pub struct Figures {
     pub hand_support_max_mm: f64,
     pub stability_max_mm: Option<f64>,
     pub object_parts: usize,
+    /// The default ensemble's verdict (K = 8, ensemble seed 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ensemble: Option<EnsembleFigures>,
+}
+
+/// What the default ensemble decided for one trajectory.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct EnsembleFigures {
+    pub passed: usize,
+    pub replayed: usize,
+    pub pass_fraction: f64,
+    pub decision: String,
+    pub uncertain: bool,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -102,7 +124,47 @@ fn figures(name: &str, r: &PhysicsReport) -> Figures {
         hand_support_max_mm: r.penetration.hand_support.max_mm,
         stability_max_mm: r.stability.as_ref().map(|s| s.max_mm),
         object_parts: r.replay.object_parts,
+        ensemble: None,
     }
+}
+
+fn ensemble_figures(r: &PhysicsReport) -> EnsembleFigures {
+    let e = r.ensemble.as_ref().expect("the default ensemble");
+    EnsembleFigures {
+        passed: e.passed,
+        replayed: e.replayed,
+        pass_fraction: e.pass_fraction,
+        decision: e.decision.as_str().to_string(),
+        uncertain: e.uncertain,
+    }
+}
+
+/// How the pass fraction `now` moved from `captured`: `None` when two ensembles could give
+/// both by chance (neither has dropped from the other by more than their intervals allow,
+/// and the decisions agree wherever both are certain), else why not.
+fn pass_fraction_moved(captured: &EnsembleFigures, now: &EnsembleFigures) -> Option<String> {
+    let (c, n) = (
+        (captured.passed, captured.replayed),
+        (now.passed, now.replayed),
+    );
+    let certain_flip = captured.decision != now.decision && !captured.uncertain && !now.uncertain;
+    (dropped_significantly(c, n) || dropped_significantly(n, c) || certain_flip).then(|| {
+        format!(
+            "passes {} of {} ({}{}), captured {} of {} ({}{})",
+            now.passed,
+            now.replayed,
+            now.decision,
+            if now.uncertain { ", uncertain" } else { "" },
+            captured.passed,
+            captured.replayed,
+            captured.decision,
+            if captured.uncertain {
+                ", uncertain"
+            } else {
+                ""
+            },
+        )
+    })
 }
 
 /// One trajectory file and what it is replayed in.
@@ -200,20 +262,26 @@ fn every_step() -> Params {
 fn physics_figures_match_the_captured_ones() {
     let dir = tempfile::tempdir().unwrap();
     let cases = cases(dir.path());
-    let (full, short): (Vec<PhysicsReport>, Vec<PhysicsReport>) = cases
+    let runs: Vec<(PhysicsReport, PhysicsReport, PhysicsReport)> = cases
         .par_iter()
         .map(|c| {
             (
                 replay_file(&c.path, &every_step()),
                 replay_file(&c.path, &Params::single_replay()),
+                replay_file(&c.path, &Params::default()),
             )
         })
-        .unzip();
+        .collect();
+    let full: Vec<PhysicsReport> = runs.iter().map(|r| r.0.clone()).collect();
+    let short: Vec<PhysicsReport> = runs.iter().map(|r| r.1.clone()).collect();
     shortcuts_keep_the_verdicts(&cases, &full, &short);
     let now: Vec<Figures> = cases
         .iter()
-        .zip(&full)
-        .map(|(c, r)| figures(&c.name, r))
+        .zip(&runs)
+        .map(|(c, (f, _, e))| Figures {
+            ensemble: Some(ensemble_figures(e)),
+            ..figures(&c.name, f)
+        })
         .collect();
     if std::env::var_os("DEXWARP_CAPTURE_PHYSICS").is_some() {
         let captured = Captured {
@@ -227,6 +295,24 @@ fn physics_figures_match_the_captured_ones() {
         let text = serde_json::to_string_pretty(&captured).unwrap() + "\n";
         std::fs::write(data_path(), text).unwrap();
         println!("wrote {}", data_path().display());
+        for f in &captured.cases {
+            let e = f.ensemble.as_ref().unwrap();
+            let single = if f.verdict == "pass" { "keep" } else { "drop" };
+            println!(
+                "{}: single replay {}, ensemble {} of {} ({}{}){}",
+                f.name,
+                f.verdict,
+                e.passed,
+                e.replayed,
+                e.decision,
+                if e.uncertain { ", uncertain" } else { "" },
+                if e.decision != single {
+                    "  <- the decision moved"
+                } else {
+                    ""
+                }
+            );
+        }
         return;
     }
     let captured: Captured =
@@ -306,6 +392,15 @@ fn physics_figures_match_the_captured_ones() {
                 "{}: verdict {} (drop {:?}), captured {} (drop {:?}); reasons now {:?}",
                 a.name, a.verdict, a.drop_frame, b.verdict, b.drop_frame, a.reasons
             ));
+        }
+        match (&a.ensemble, &b.ensemble) {
+            (Some(n), Some(c)) => {
+                if let Some(why) = pass_fraction_moved(c, n) {
+                    bad.push(format!("{}: the ensemble {why}", a.name));
+                }
+            }
+            (_, None) => bad.push(format!("{}: no captured ensemble", a.name)),
+            (None, Some(_)) => unreachable!("every run has its ensemble"),
         }
         if a.object_parts != b.object_parts {
             bad.push(format!(
@@ -509,4 +604,26 @@ fn physics_regression_timing() {
     println!(
         "verdicts changed: {changed}; replay median {rm:.3} s mean {ra:.3} s; total without decomposition median {tm:.3} s mean {ta:.3} s"
     );
+}
+
+#[test]
+fn a_pass_fraction_moves_only_past_what_two_ensembles_give_by_chance() {
+    let e = |passed: usize, replayed: usize| {
+        let (decision, uncertain) = dexwarp::physics::ensemble::decide(passed, replayed, 0.5);
+        EnsembleFigures {
+            passed,
+            replayed,
+            pass_fraction: passed as f64 / replayed as f64,
+            decision: decision.as_str().to_string(),
+            uncertain,
+        }
+    };
+    // A certain keep against an uncertain one, and two uncertain ones: chance.
+    assert_eq!(pass_fraction_moved(&e(7, 7), &e(5, 8)), None);
+    assert_eq!(pass_fraction_moved(&e(4, 6), &e(2, 8)), None);
+    // A certain keep that became a certain drop, either way round: moved.
+    assert!(pass_fraction_moved(&e(7, 7), &e(1, 8)).is_some());
+    assert!(pass_fraction_moved(&e(0, 7), &e(7, 7)).is_some());
+    // 8 of 8 against 4 of 8: the drop is larger than the intervals allow.
+    assert!(pass_fraction_moved(&e(8, 8), &e(4, 8)).is_some());
 }
