@@ -347,10 +347,18 @@ fn stride_for(demo_fps: f64, fps: Option<u32>, path: &Path) -> Result<(u32, usiz
 pub fn collect(options: &ExportOptions, limits: &Limits) -> Result<Collected> {
     let found = find(&options.inputs)?;
     if found.is_empty() {
+        let lists = options
+            .inputs
+            .iter()
+            .all(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")));
         return Err(Error::invalid(
             &options.inputs[0],
             "(input)",
-            "contains no report.json; expected an output folder of warp, batch, augment or reproduce, or a .demo.json file",
+            if lists {
+                "lists no trajectory (the filter that wrote it kept none; its .dropped.csv says why); expected at least one kept trajectory"
+            } else {
+                "contains no report.json; expected an output folder of warp, batch, augment or reproduce, or a .demo.json file"
+            },
         ));
     }
     let mut bar =
