@@ -141,3 +141,42 @@ fn anchors_follow_githubs_rule() {
         "see-it-the-player-and-nightly-comparisons"
     );
 }
+
+/// Where docs/RESULTS.md carries the committed `reproduce` run's tables.
+const GENERATED_BEGIN: &str = "<!-- generated from reports/latest/summary.md: do not edit; \
+     DEXWARP_WRITE_DOCS=1 cargo test --test it docs::results rewrites it -->";
+const GENERATED_END: &str = "<!-- end of the generated part -->";
+
+/// The committed run's summary without its title: the run's revision and machine line, then
+/// every table with its notes.
+fn committed_tables() -> String {
+    let summary = std::fs::read_to_string(repo("reports/latest/summary.md")).unwrap();
+    let body = summary
+        .lines()
+        .skip_while(|l| l.starts_with("# ") || l.trim().is_empty())
+        .collect::<Vec<_>>()
+        .join("\n");
+    format!("{}\n", body.trim_end())
+}
+
+#[test]
+fn results_carry_the_committed_runs_tables() {
+    let path = repo("docs/RESULTS.md");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let (Some(begin), Some(end)) = (text.find(GENERATED_BEGIN), text.find(GENERATED_END)) else {
+        panic!("docs/RESULTS.md has no generated part (its two markers)");
+    };
+    let start = begin + GENERATED_BEGIN.len() + 1;
+    let tables = committed_tables();
+    if std::env::var_os("DEXWARP_WRITE_DOCS").is_some() {
+        let written = format!("{}{tables}{}", &text[..start], &text[end..]);
+        std::fs::write(&path, written).unwrap();
+        println!("rewrote the generated part of {}", path.display());
+        return;
+    }
+    assert!(
+        text[start..end] == tables,
+        "docs/RESULTS.md's tables differ from reports/latest/summary.md's; after a new committed \
+         run: DEXWARP_WRITE_DOCS=1 cargo test --test it docs::results"
+    );
+}
