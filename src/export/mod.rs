@@ -341,25 +341,30 @@ fn stride_for(demo_fps: f64, fps: Option<u32>, path: &Path) -> Result<(u32, usiz
     }
 }
 
+/// The error for inputs in which no trajectory was found: filter lists that kept none, or
+/// folders without reports.
+fn nothing_found(inputs: &[PathBuf]) -> Error {
+    let lists = inputs
+        .iter()
+        .all(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")));
+    Error::invalid(
+        &inputs[0],
+        "(input)",
+        if lists {
+            "lists no trajectory (the filter that wrote it kept none; its .dropped.csv says why); expected at least one kept trajectory"
+        } else {
+            "contains no report.json; expected an output folder of warp, batch, augment or reproduce, or a .demo.json file"
+        },
+    )
+}
+
 /// Reads every trajectory below `options.inputs` (in parallel) into episodes, applying
 /// `--only-passing`, `--robot` and `--fps`. Trajectories whose set is incomplete, that
 /// failed to run, or have no demonstration are skipped with the reason.
 pub fn collect(options: &ExportOptions, limits: &Limits) -> Result<Collected> {
     let found = find(&options.inputs)?;
     if found.is_empty() {
-        let lists = options
-            .inputs
-            .iter()
-            .all(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")));
-        return Err(Error::invalid(
-            &options.inputs[0],
-            "(input)",
-            if lists {
-                "lists no trajectory (the filter that wrote it kept none; its .dropped.csv says why); expected at least one kept trajectory"
-            } else {
-                "contains no report.json; expected an output folder of warp, batch, augment or reproduce, or a .demo.json file"
-            },
-        ));
+        return Err(nothing_found(&options.inputs));
     }
     let mut bar =
         crate::output::progress::Progress::new("export", found.len() as u64, options.progress);
