@@ -23,9 +23,8 @@
 //!    member (8 by default), steps 3-5 again under seeded perturbations, and the verdict
 //!    becomes the decision on their pass fraction. With the kinematic hand the perturbed
 //!    members of a batch share one world ([`world::ReplayWorld::shared`]), where the solver
-//!    packs their contacts into SIMD lanes one member's contacts never fill: on the teapot
-//!    demonstration a member costs 0.29 s in a world of six against 0.40 s alone (one core,
-//!    one run; docs/RESULTS.md, "Physics speed judged by pass fractions"). Everything below measures single replays
+//!    packs their contacts into SIMD lanes one member's contacts never fill (what it saves:
+//!    docs/RESULTS.md, "Physics speed judged by pass fractions"). Everything below measures single replays
 //!    (member 0, or `ensemble.members = 1`); the single verdicts it calls "at the edge" are
 //!    what the ensemble reports as `uncertain`.
 //!
@@ -127,178 +126,34 @@
 //!
 //! # Where the time goes
 //!
-//! Profiled with `perf` on `warp --hand baseline` of teapot_pour_cups (release, 6,592
-//! steps): the contact solver is about half of the process (Rapier's twist-friction contact
-//! constraints: solve 14 %, update 10 %, generate 9 %, right-hand side 5 %, warm start 5 %),
-//! the narrow phase about 15 % (pair updates, GJK/EPA and support points against the
-//! object's convex parts), the decomposition 5-10 % when not cached, our own per-step work
-//! (interpolation, forward kinematics) under 1 %. Per step the teapot has 16 contact
-//! pairs, 10.6 of them with active contacts, 60 manifolds and 136 contact points: every
-//! hand capsule near the pot meets several of its 15 parts. Solver work grows with the
-//! active pairs (the frying pan: 3.1 active pairs, a quarter of the teapot's time per
-//! step). The penetration checks at the demonstration's poses run beside the replay and the
-//! stability samples in parallel (rayon); both are independent of the replay's state, so
-//! the report is the same to the bit.
-//!
-//! Why the solver cannot be made much cheaper from our side: Rapier 0.36 solves contacts in
-//! SIMD chunks of four manifolds whose bodies must differ, and every hand-object manifold
-//! shares the one dynamic body, the object (kinematic links do not count). So each lands in
-//! a chunk of its own, and three of its four lanes are padding
-//! (`staged_island_solver/init.rs`: "ungroupable => 1-lane chunks"). The solver's
-//! arithmetic is four times what the contacts need, and no setting of ours changes that.
-//! What the build can change is how a 4-lane f64 operation runs: for baseline x86-64 it is
-//! two 128-bit halves, for x86-64-v3 (AVX2, `.cargo/config.toml`) one 256-bit operation.
-//! Measured on the 17 built-in configs x 2 hands at 3.5 mm (release, one run each, idle
-//! 2-core machine): physics 0.508 -> 0.372 s per trajectory on average (1.37x), largest
-//! 1.02 -> 0.78 s, and all 102 output files the same to the byte (reports but for their
-//! timings): Rapier's arithmetic does not fuse multiply-adds, so wider registers give the
-//! same roundings.
-//!
-//! The settings that would make it cheaper all change what physics says. Measured with
-//! `physics_regression_timing` (`tests/it/physics_regression.rs`) over the 23 regression
-//! trajectories (test profile, one machine, one session). The default's median replay was
-//! 0.485 s in one run and 0.603 s in another. The prediction distance (Rapier's
-//! `normalized_prediction_distance`) was set through a parameter added for the measurement
-//! and removed after it:
-//!
-//! | setting | median replay | verdicts changed |
-//! |---|---:|---:|
-//! | Rapier prediction distance 6 mm (default 20 mm) | 0.305 s | 1 |
-//! | Rapier prediction distance 2 mm | 0.279 s | 3 |
-//! | 1/120 s steps with 8 substeps (the same substep length) | 0.395 s | 3 |
-//! | 2 substeps (default 4) | 0.362 s | 4 |
-//!
-//! A teapot verdict changed under every one of them, the apple's under two, a mug's under
-//! one: grasps near the edge. Mean position errors moved by up to 76 mm. None of these
-//! settings is adopted.
-//!
-//! Fewer solver manifolds, same narrow phase ([`Params::solver_contact_gap_m`], off by
-//! default): 46-76 % of the hand-object manifolds Rapier hands its solver carry only
-//! speculative contact points, all more than 3 mm beyond the finger skin (counted over
-//! every step of contact IK's outputs: teapot_pour_cups 76 %, mug_pass_wall 73 %,
-//! fryingpan_island 56 %, cube_messy 46 %). Left out of the solver, they cut the
-//! regression set's median replay from 0.327 s to 0.199 s (1.64x; mean 0.398 to 0.246 s) with
-//! one verdict changed (`fryingpan_change_tops --hand baseline`, pass to fail at 30.2 mm
-//! against the 30 mm drop limit, a trajectory whose margin holds only at nominal friction
-//! and mass). But the figures move: the teapot's mean tracking error from 9.7 to 16.2 mm,
-//! the mug's stability displacement from 0.99 to 0.12 mm. Those manifolds carry no
-//! impulse, yet with them gone Rapier's constraint graph colours and orders the remaining
-//! contacts differently, and its one Gauss-Seidel pass per substep is not converged, so the
-//! order is part of the result. Not the default for that reason; a config can ask for it
-//! (`"params": {"physics": {"solver_contact_gap_m": 0.003}}`) when throughput matters more
-//! than comparability with earlier runs.
-//!
-//! Measured again on the code of c688402 (x86-64-v3 build, held grasp): on the 17 built-in
-//! configs x 2 hands at 3.5 mm the cut keeps every robust verdict (fryingpan_change_tops
-//! flips both ways, neither hand robust there), mean physics per trajectory 0.342 -> 0.272 s
-//! (1.26x, contact IK, `scripts/physics_time.py --runs 3`). But on sampled variations it is
-//! not neutral: `augment --count 200 --seed 1 --jobs 2` keeps 82 teapot samples without it and
-//! 51 with it (mug: 200 and 200), at 1.28x (teapot) and 1.39x (mug) the samples per hour. A
-//! cut of 1 mm instead of 3 flips teapot_pour_empty's robust contact-IK pass to a slip, and
-//! Rapier's prediction distance at 6 or 10 mm (default 20) flips teapot_pour_cups' robust
-//! baseline pass. The robustness margin does not certify a change to the solver's inputs:
-//! it replays one order of the constraints.
-//!
-//! A replay near the edge of holding is chaotic: the last-bit differences of a quaternion
-//! renormalization turn fryingpan_onto_shelf `--hand baseline` from a pass into a slip at
-//! frame 258. [`margin`] replays a passing trajectory under lower friction and higher mass
-//! to say how close to the edge it is.
-//!
-//! Where the steps go, per built-in config (contact IK at 3.5 mm, default parameters, the
-//! dev profile with optimized dependencies, one run on a 2-core machine;
-//! `cargo run --release --example physics_profile` prints it): "hand contact" is the share
-//! of steps after which a hand link touches the object, "idle" the share with no hand
-//! contact and the object slower than [`IDLE_SPEED_M_S`] (at rest: a step there changes
-//! nothing a check reads), manifolds and points are counted after each step. Penetration
-//! runs beside the replay (rayon), so the total is about decomposition + replay + stability.
-//!
-//! | config | frames | steps | hand contact | idle | hand manifolds / step | hand points / step | other manifolds / step | decomposition s | replay s | penetration s | stability s | total s | verdict |
-//! |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|
-//! | allegro_apple_plate | 450 | 3592 | 61 % | 0 % | 6.24 | 27.8 | 0.72 | 0.004 | 0.187 | 0.009 | 0.012 | 0.214 | pass |
-//! | cube_messy | 673 | 5376 | 61 % | 39 % | 6.88 | 22.4 | 0.65 | 0.000 | 0.251 | 0.005 | 0.015 | 0.269 | pass |
-//! | cube_messy2 | 753 | 6016 | 65 % | 35 % | 7.41 | 23.0 | 0.67 | 0.000 | 0.337 | 0.005 | 0.011 | 0.351 | pass |
-//! | fryingpan_change_tops | 1218 | 9736 | 79 % | 21 % | 31.09 | 77.6 | 15.65 | 0.003 | 1.060 | 0.020 | 0.029 | 1.108 | pass |
-//! | fryingpan_island | 678 | 5416 | 63 % | 37 % | 22.90 | 61.0 | 14.04 | 0.000 | 0.731 | 0.009 | 0.029 | 0.766 | pass |
-//! | fryingpan_onto_shelf | 768 | 6136 | 67 % | 33 % | 24.46 | 65.5 | 10.30 | 0.000 | 0.619 | 0.018 | 0.037 | 0.662 | pass |
-//! | fryingpan_timewarp_stress_rotate | 928 | 7416 | 73 % | 27 % | 26.88 | 72.2 | 11.96 | 0.000 | 0.795 | 0.022 | 0.026 | 0.827 | pass |
-//! | gripper_box_waypoints | 420 | 3352 | 68 % | 32 % | 2.68 | 13.1 | 0.55 | 0.000 | 0.075 | 0.003 | 0.005 | 0.080 | pass |
-//! | mug_pass_in_sink | 544 | 4344 | 63 % | 0 % | 24.87 | 68.6 | 8.02 | 0.003 | 0.367 | 0.005 | 0.021 | 0.397 | pass |
-//! | mug_pass_wall | 564 | 4504 | 65 % | 0 % | 21.93 | 67.6 | 7.24 | 0.000 | 0.373 | 0.005 | 0.018 | 0.400 | pass |
-//! | mug_pass_wall_short | 484 | 3864 | 59 % | 0 % | 20.78 | 58.3 | 8.50 | 0.000 | 0.295 | 0.004 | 0.017 | 0.317 | pass |
-//! | mug_timewarp_stress_barrier | 854 | 6824 | 77 % | 0 % | 28.15 | 84.3 | 4.57 | 0.000 | 0.620 | 0.009 | 0.018 | 0.647 | pass |
-//! | mug_timewarp_stress_compress | 464 | 3704 | 57 % | 0 % | 19.65 | 59.1 | 8.55 | 0.000 | 0.274 | 0.009 | 0.018 | 0.296 | pass |
-//! | teapot_pour_cup_long | 810 | 6472 | 75 % | 24 % | 41.41 | 134.4 | 1.69 | 0.005 | 0.845 | 0.010 | 0.029 | 0.909 | pass |
-//! | teapot_pour_cups | 825 | 6592 | 75 % | 23 % | 39.53 | 133.5 | 1.76 | 0.000 | 0.837 | 0.011 | 0.030 | 0.901 | pass |
-//! | teapot_pour_cups_wall | 895 | 7152 | 78 % | 21 % | 40.92 | 133.2 | 1.80 | 0.000 | 0.974 | 0.014 | 0.027 | 1.037 | fail |
-//! | teapot_pour_empty | 720 | 5752 | 72 % | 27 % | 38.95 | 127.5 | 2.35 | 0.000 | 0.707 | 0.009 | 0.027 | 0.759 | pass |
-//! | mean of 17 | | | | | | | | 0.001 | 0.550 | 0.010 | 0.022 | 0.585 | |
-//!
-//! What it says for making physics cheaper: the replay is 94 % of the time (0.550 of 0.585
-//! s on average), and 57-79 % of the steps have a hand on the object, so skipping idle
-//! spans saves at most 21-39 % of the steps where the object rests on a support before the
-//! grasp or after the release (0 % for the mugs and the apple, whose rest is not still:
-//! their speed on the support stays above 1 mm/s), far from a third of the cost. The cost is
-//! in the steps with a hand: the teapot and the frying pan carry 23-41 hand manifolds and
-//! 58-134 contact points per step against the mug's 20-28 and the cube's 7, and the solver's
-//! work grows with them (see above): fewer manifolds (fewer convex parts of the object
-//! meeting the fingers, links that cannot touch filtered out) is where the larger gain is.
-//!
-//! The table's `replay s` counts every step: the idle ones cost little (the per-step times
-//! by kind, [`StepTimes`]: the steps with a hand on the object are 84-96 % of the replay's
-//! time on teapot_pour_cups, fryingpan_island, mug_pass_wall and cube_messy).
+//! The contact solver is about half of a replay (Rapier's twist-friction contact
+//! constraints), the narrow phase about a sixth (GJK/EPA and support points of the hand's
+//! capsules against the object's convex parts), our own per-step work (interpolation,
+//! forward kinematics) under 1 %. Solver work grows with the hand-object manifolds, and
+//! Rapier 0.36 solves contacts in SIMD chunks of four manifolds whose bodies must differ:
+//! every hand-object manifold shares the one dynamic object, so each lands in a chunk of its
+//! own and three of its four lanes are padding. What we do about it: the x86-64-v3 build
+//! (one 256-bit operation per 4-lane f64 operation, the same roundings), the object's mass
+//! properties computed once per object, the ensemble's perturbed members in shared worlds
+//! (whose contacts fill each other's lanes), and the shortcuts below. Every cheaper solver
+//! setting tried (fewer substeps, longer steps, a shorter prediction distance, the solver
+//! cut of [`Params::solver_contact_gap_m`]) moved verdicts or pass fractions more than a
+//! second ensemble seed does, so none is the default. The profiles, timings and comparisons:
+//! docs/RESULTS.md, "Physics: where the time goes" and "Physics speed judged by pass
+//! fractions"; `cargo run --release --example physics_profile` and `cargo bench --bench
+//! physics` measure them again.
 //!
 //! # Simulating less
 //!
 //! What the replay leaves out by default ([`Params::skip_rest`], [`Params::stop_after_drop`],
 //! `replay.rs`): the spans after the release where the object rests with no hand link within
 //! reach, the rocking of an untouched object that has not settled after 1 s, and everything
-//! after a decided drop. On the 17 built-in configs (contact IK at 3.5 mm,
-//! `scripts/physics_time.py`, dev builds of 2eee92a and of this code, one run each in turn,
-//! one idle 2-core machine) the physics time per trajectory went from a mean of 0.582 s to
-//! 0.575 s (1.01x; 0.88-1.15x per config, within run-to-run noise; largest 1.20 s), 411-904
-//! steps skipped on the non-teapot configs (none on the teapot, whose hand stays within reach
-//! of the pot), teapot_pour_cups_wall stopped at frame 668 of 894, no verdict changed.
-//! `cargo bench --bench physics` (release, medians, same run): the 700-frame gripper pick and
-//! place 142.8 ms against 176.1 ms stepping every frame (616 of 5,592 steps skipped, 1.23x);
-//! the contact-heavy teapot demonstration 723 ms against 809 ms (no step skipped: the
-//! difference is the run's noise). The regression test replays its 23 trajectories both
-//! ways: every verdict, first reason and drop frame is the same, and where nothing is left
-//! out the per-frame figures are the same to the bit. This is far from a third of the cost:
-//! the time is in the steps with a hand on the object, and the one large cut found there
-//! (the solver cut below) changes the figures. Holding an untouched object from frame 0, or
-//! as soon as it settled, skipped more (up to 1,829 steps per config, 1.12x on the mean) but
-//! cost frying-pan grasps at the slip limit (see `replay.rs`), so it is not done.
-//!
-//! What made it cheaper without changing an output (same 17 configs, release builds of
-//! 2eee92a and of 42dc45a, before the held grasp became the default,
-//! `scripts/physics_time.py --runs 3`, medians, one run on an idle 2-core machine): the
-//! x86-64-v3 build (above), the object's mass properties computed once per object instead
-//! of for every world (replay, stability samples, margin conditions),
-//! and, for `augment`, the demonstration, robot and mesh loaded once for all samples and
-//! each input file hashed once for the provenance. Physics per trajectory 0.602 s -> 0.422 s
-//! (1.43x; 1.21-1.85x per config; largest 1.139 -> 0.763 s), no verdict changed;
-//! `augment --count 200 --seed 1 --jobs 2` (one run each in turn): mug 15,386 -> 21,813
-//! samples per hour (1.42x), teapot 6,475 -> 8,801 (1.36x), the same samples kept with the
-//! same figures. A fused, single-unit build (`lto = "fat"`, `codegen-units = 1`) gave
-//! another 1.08x with the same outputs, but a release build of our crate alone takes
-//! minutes longer: not adopted.
-//!
-//! Smaller hulls do not help: cutting every convex part of the object to at most 32
-//! vertices (farthest-point sampled; the teapot's parts have 56-270, the apple's one hull
-//! 1,080) left the mean physics time as it was (0.336 -> 0.341 s on the 17 configs x 2
-//! hands) and flipped two verdicts at the edge; the narrow phase's support points are not
-//! where the time is.
-//!
-//! Why not the solver cut, now: with the x86-64-v3 build it gives 1.19x (mean physics 0.372
-//! -> 0.312 s over the 17 configs x 2 hands) and changes three verdicts, all on trajectories
-//! whose margin holds only at nominal friction and mass (fryingpan_change_tops baseline,
-//! teapot_pour_cups and teapot_pour_empty contact IK). How little it takes to flip those:
-//! inserting the hand's links into the world in reverse order, which changes nothing but
-//! the order of Rapier's constraints, turns both contact-IK teapots from pass into fail
-//! (mean position error 13.7 -> 22.1 mm, 9.2 -> 26.6 mm) and leaves every robust
-//! trajectory's verdict as it was (fryingpan_change_tops, fryingpan_island, mug_pass_wall,
-//! cube_messy: mean errors within 1.2 mm). A verdict without a margin is a draw at the edge;
-//! `--margin` says which ones are.
+//! after a decided drop. The regression test replays its trajectories both ways: every
+//! verdict, first reason and drop frame is the same, and where nothing is left out the
+//! per-frame figures are the same to the bit. A replay near the edge of holding is chaotic
+//! (the last-bit differences of a quaternion renormalization can turn a pass into a slip);
+//! [`margin`] replays a passing trajectory under lower friction and higher mass to say how
+//! close to the edge it is, and the ensemble says it per trajectory.
 //!
 //! Contact recycling is off ([`Params::contact_recycling`], see [`world`]): stale recycled
 //! contacts let open gripper jaws sliding 10 mm beside a box push it 21 mm.
