@@ -11,6 +11,10 @@
 //!   so a slowly closing hand always wakes it;
 //! - supports and the checked barriers are fixed bodies, one collider each.
 //!
+//! A world may hold several trajectories of one hand and object ([`ReplayWorld::shared`],
+//! the ensemble's members): each member's hand and object in a collision group of their own
+//! that meets only each other and the fixed items, so one step advances them all.
+//!
 //! Each collider's `user_data` tags what it is ([`Tag`]), for diagnostics. Distances are
 //! never read from the narrow phase's manifolds: with contact recycling (on by default, and
 //! kept for speed) their `dist` stays frozen while a pair moves less than the recycle
