@@ -75,40 +75,17 @@
 //! `physics::the_grip_force_splits_into_the_skin_and_the_overlap` checks the split and the
 //! scale on the plates: N ≥ m·g/μ whenever the cube is held, the force grows with the
 //! overlap, plates 2 mm off grip through the skin alone, plates 2 mm in owe 40 % of it to
-//! the overlap (2 / (2 + 3)). Measured there, for the 2 N cube: 18 N with the plates 2 mm
-//! off, 69 N at the surface, 92 N 2 mm in.
+//! the overlap (2 / (2 + 3)).
 //!
-//! Measured on the six originals (kinematic hand, release build, `validate`):
-//!
-//! | demonstration | weight | median normal force | largest | at overlapping points | from the overlap |
-//! |---|---:|---:|---:|---:|---:|
-//! | cube | 0.98 N | 96 N | 101 N | 72 % | 26 % |
-//! | mug | 2.9 N | 154 N | 162 N | 60 % | 9 % |
-//! | frying_pan | 8.8 N | 229 N | 234 N | 59 % | 12 % |
-//! | teapot | 5.9 N | 239 N | 251 N | 47 % | 7 % |
-//! | apple | 1.8 N | 242 N | 286 N | 77 % | 29 % |
-//! | small_box (gripper) | 0.98 N | 96 N | 110 N | 80 % | 30 % |
-//!
-//! So the skin carries 70-93 % of every grip, and the kinematic hand squeezes with 26-137
-//! times the object's weight: a position-driven body pushes as hard as the solver needs to
-//! undo the compression, with no force limit. A kinematic verdict therefore says that the
-//! trajectory carries the object under a squeeze no hand applies; whether actuators with
-//! the URDF's effort limits would hold it is what the actuated hand below answers. Driven
-//! by its motors (same measure, `--physics-hand actuated`): the mug holds with a median
-//! 12 N (4x its weight) and the small box with 5.9 N (6x); the frying pan (60 N) and the
-//! teapot (103 N) slip at the 30 mm limit; the cube and the apple drop because the fingers
-//! lose the object, which they press on at only 100 of 350 and 34 of 224 contact frames.
-//!
-//! The same squeeze moves the object as the hand closes on it, wherever little stands
-//! opposite a contact: every report has `physics.onset` ([`Onset`]), the object's error at
-//! the contact segment's first frame. In `reproduce`'s run (`tables/baseline_comparison.md`,
-//! contact IK at 3.5 mm / the rigid baseline) it is 5.0-6.3 / 3.7-4.4 mm for the cubes,
-//! 5.5-6.6 / 6.2-8.1 mm for the frying pans, 6.4-7.1 / 2.9 mm for the mugs (contact IK's
-//! grasp sits 7.5 mm to the side of the recorded one, and its hand is blended into it as it
-//! closes) and 4.8-6.6 / 7.0-7.6 mm for the teapot's hook, whose hand is in place before
-//! its fingers close. Its earlier demonstration closed them while the hand still slid in:
-//! 9.1-13.8 / 17.7 mm, and with the skin at 0.5 or 1.5 mm 1.6-3.1 mm, but the pot then
-//! slipped: the skin that grips is the skin that pushes.
+//! The skin carries most of every grip, and a kinematic hand squeezes with tens of times the
+//! object's weight: a position-driven body pushes as hard as the solver needs to undo the
+//! compression, with no force limit. A kinematic verdict therefore says that the trajectory
+//! carries the object under a squeeze no hand applies; whether actuators with the URDF's
+//! effort limits would hold it is what the actuated hand below answers. The same squeeze
+//! moves the object as the hand closes on it, wherever little stands opposite a contact:
+//! every report has `physics.onset` ([`Onset`]), the object's error at the contact
+//! segment's first frame. The forces and onsets measured on the demonstrations and configs:
+//! docs/RESULTS.md, "Physics: grip and onset".
 //!
 //! # The actuated hand (an option)
 //!
