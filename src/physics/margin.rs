@@ -8,7 +8,8 @@
 //! (1 for the nominal, 3 for `μ × 0.5` at `1.5 ×` mass). The margin is the hardest
 //! condition up to which every condition passes, in order of load ratio (ties: the higher
 //! friction first), e.g. "holds down to μ = 0.50 at 1.5x mass"; the trajectory is
-//! **robust** when it passes every condition. Measured on the six base demonstrations:
+//! **robust** when it passes every condition. Measured on the six base demonstrations (`cargo
+//! test --test it margins_of_the_base -- --ignored --nocapture` measures it again):
 //! five are robust; the apple (Allegro) fails at 1.5x mass with μ = 1 and 0.75 but passes
 //! at μ = 0.5 with 1.5x mass, so its margin is the nominal condition: a replay that close to
 //! the edge is not monotone in the load.
