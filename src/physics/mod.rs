@@ -343,6 +343,8 @@ fn run_ensemble(
     limits: &Limits,
 ) -> Result<Ensemble> {
     let ep = &params.ensemble;
+    let (object, cached) = object_parts(demo, object_mesh, params)?;
+    let (supports, solid) = scene_items(scene, barriers, limits)?;
     let replays = MemberReplays {
         robot,
         demo,
@@ -351,6 +353,10 @@ fn run_ensemble(
         object_mesh,
         params,
         limits,
+        object,
+        cached,
+        supports,
+        solid,
         penetration: PenetrationRun {
             penetration: nominal.penetration.clone(),
             per_ho: nominal.per_frame.hand_object_penetration_mm.clone(),
@@ -399,6 +405,12 @@ struct MemberReplays<'a> {
     object_mesh: &'a Mesh,
     params: &'a Params,
     limits: &'a Limits,
+    /// The object's shape (and whether it came from the cache), the scene's supports and
+    /// checked barriers: built once for every shared world of the ensemble.
+    object: Arc<ObjectShape>,
+    cached: bool,
+    supports: NamedShapes,
+    solid: NamedShapes,
     penetration: PenetrationRun,
 }
 
@@ -470,8 +482,7 @@ impl MemberReplays<'_> {
     /// indices alone, so the outcome does not depend on the cores.
     fn shared(&self, indices: &[usize]) -> Result<Vec<ensemble::Member>> {
         let (robot, params) = (self.robot, self.params);
-        let (object, cached, _) = object_shapes(self.demo, self.object_mesh, params)?;
-        let (supports, solid) = scene_items(self.scene, self.barriers, self.limits)?;
+        let (object, supports) = (&self.object, &self.supports);
         let worlds = indices.len().div_ceil(SHARED_MEMBERS).max(1);
         let size = indices.len().div_ceil(worlds).max(1);
         let groups: Vec<&[usize]> = indices.chunks(size).collect();
@@ -488,7 +499,14 @@ impl MemberReplays<'_> {
                     starts.push(start);
                 }
                 let traces = run_shared_replay(
-                    robot, &demos, &params_of, &starts, &object, &supports, &solid, params,
+                    robot,
+                    &demos,
+                    &params_of,
+                    &starts,
+                    object,
+                    supports,
+                    &self.solid,
+                    params,
                 );
                 draws
                     .into_iter()
@@ -496,11 +514,11 @@ impl MemberReplays<'_> {
                     .zip(traces)
                     .zip(group.iter())
                     .map(|(((draw, (d, p)), trace), &index)| {
-                        let checked = check_replay(robot, d, &object, &supports, &trace, p);
+                        let checked = check_replay(robot, d, object, supports, &trace, p);
                         let r = judge(
                             d,
-                            &object,
-                            cached,
+                            object,
+                            self.cached,
                             &trace,
                             self.penetration.clone(),
                             checked,
@@ -658,6 +676,16 @@ pub fn settle(
     }
 }
 
+/// The object's collision shape and whether it came from the cache.
+fn object_parts(
+    demo: &Demo,
+    object_mesh: &Mesh,
+    params: &Params,
+) -> Result<(Arc<ObjectShape>, bool)> {
+    object_shape(object_mesh, &params.decomposition)
+        .map_err(|e| Error::invalid(&demo.object.mesh, "(mesh)", e.to_string()))
+}
+
 /// The object's convex decomposition (and whether it came from the cache) and its signed
 /// distance field: the same one the IK keeps the fingers out of.
 fn object_shapes(
@@ -665,8 +693,7 @@ fn object_shapes(
     object_mesh: &Mesh,
     params: &Params,
 ) -> Result<(Arc<ObjectShape>, bool, Arc<crate::geometry::ObjectSdf>)> {
-    let (object, cached) = object_shape(object_mesh, &params.decomposition)
-        .map_err(|e| Error::invalid(&demo.object.mesh, "(mesh)", e.to_string()))?;
+    let (object, cached) = object_parts(demo, object_mesh, params)?;
     let sdf = crate::geometry::object_sdf(object_mesh).ok_or_else(|| {
         Error::invalid(
             &demo.object.mesh,

@@ -328,15 +328,17 @@ impl Params {
                 "is 0; expected at least 1",
             ));
         }
-        if self.solver_iterations > 64 || self.stabilization_iterations > 64 {
-            return Err(Error::invalid(
-                path,
-                "solver_iterations",
-                format!(
-                    "is {} (stabilization_iterations {}); expected at most 64 each",
-                    self.solver_iterations, self.stabilization_iterations
-                ),
-            ));
+        for (field, n) in [
+            ("solver_iterations", self.solver_iterations),
+            ("stabilization_iterations", self.stabilization_iterations),
+        ] {
+            if n > 64 {
+                return Err(Error::invalid(
+                    path,
+                    field,
+                    format!("is {n}; expected at most 64"),
+                ));
+            }
         }
         self.ensemble.check()?;
         let d = &self.decomposition;

@@ -243,10 +243,7 @@ impl ReplayWorld {
         });
         insert_fixed(&mut world, fixed, params, scene_groups);
         ReplayWorld {
-            hooks: SolverCut {
-                gap_m: params.solver_contact_gap_m.unwrap_or(f64::INFINITY),
-                dt: world.integration_parameters.dt,
-            },
+            hooks: SolverCut::new(params, &world),
             world,
             members,
         }
@@ -290,10 +287,7 @@ impl ReplayWorld {
                     insert_object(&mut world, object, object_pose, mass, params, None);
                 insert_fixed(&mut world, fixed, params, None);
                 Ok(ReplayWorld {
-                    hooks: SolverCut {
-                        gap_m: params.solver_contact_gap_m.unwrap_or(f64::INFINITY),
-                        dt: world.integration_parameters.dt,
-                    },
+                    hooks: SolverCut::new(params, &world),
                     world,
                     members: vec![Member {
                         hand: HandDrive::Actuated(hand),
@@ -623,6 +617,16 @@ fn hand_collider(cs: &CollisionShape, params: &Params) -> ColliderBuilder {
 struct SolverCut {
     gap_m: f64,
     dt: f64,
+}
+
+impl SolverCut {
+    /// The cut of `params` for a world stepping as `world` does (off: an infinite gap).
+    fn new(params: &Params, world: &PhysicsWorld) -> SolverCut {
+        SolverCut {
+            gap_m: params.solver_contact_gap_m.unwrap_or(f64::INFINITY),
+            dt: world.integration_parameters.dt,
+        }
+    }
 }
 
 impl PhysicsHooks for SolverCut {

@@ -91,6 +91,13 @@ fn at(x: f64, y: f64, z: f64) -> Isometry3<f64> {
     Isometry3::translation(x, y, z)
 }
 
+/// The 6 cm cube of the squeeze tests as the physics simulates it.
+fn six_cm_cube(params: &Params) -> std::sync::Arc<dexwarp::physics::ObjectShape> {
+    object_shape(&box_mesh([0.06; 3]), &params.decomposition)
+        .unwrap()
+        .0
+}
+
 fn smoothstep(u: f64) -> f64 {
     let u = u.clamp(0.0, 1.0);
     u * u * (3.0 - 2.0 * u)
@@ -105,9 +112,7 @@ fn squeeze_lift(overlap: f64, params: &Params) -> f64 {
 /// [`squeeze_lift`], with the plates' contact forces on the cube at the end of the hold.
 fn squeeze_lift_grip(overlap: f64, params: &Params) -> (f64, GripSample) {
     let robot = plates(0.03 - overlap);
-    let cube = object_shape(&box_mesh([0.06; 3]), &params.decomposition)
-        .unwrap()
-        .0;
+    let cube = six_cm_cube(params);
     let support = table();
     let fixed = [FixedItem {
         shape: &support,
@@ -237,9 +242,7 @@ fn a_shared_world_keeps_its_members_apart() {
     // the first. Each must do what it would alone: no member's bodies touch another's.
     let params = Params::single_replay();
     let robot = plates(0.03);
-    let cube = object_shape(&box_mesh([0.06; 3]), &params.decomposition)
-        .unwrap()
-        .0;
+    let cube = six_cm_cube(&params);
     let support = table();
     let fixed = [FixedItem {
         shape: &support,
@@ -314,9 +317,7 @@ fn lone_cube(z0: f64, params: &Params) -> (ReplayWorld, Robot, Vec<Isometry3<f64
     let robot = plates(0.03);
     let mut poses = robot.new_link_poses();
     robot.forward_kinematics(&at(5.0, 5.0, 5.0), &[], &mut poses);
-    let cube = object_shape(&box_mesh([0.06; 3]), &params.decomposition)
-        .unwrap()
-        .0;
+    let cube = six_cm_cube(params);
     let support = table();
     let fixed = [FixedItem {
         shape: &support,

@@ -262,24 +262,26 @@ fn every_step() -> Params {
 fn physics_figures_match_the_captured_ones() {
     let dir = tempfile::tempdir().unwrap();
     let cases = cases(dir.path());
-    let runs: Vec<(PhysicsReport, PhysicsReport, PhysicsReport)> = cases
+    let runs: Vec<((PhysicsReport, PhysicsReport), EnsembleFigures)> = cases
         .par_iter()
         .map(|c| {
             (
-                replay_file(&c.path, &every_step()),
-                replay_file(&c.path, &Params::single_replay()),
-                replay_file(&c.path, &Params::default()),
+                (
+                    replay_file(&c.path, &every_step()),
+                    replay_file(&c.path, &Params::single_replay()),
+                ),
+                ensemble_figures(&replay_file(&c.path, &Params::default())),
             )
         })
         .collect();
-    let full: Vec<PhysicsReport> = runs.iter().map(|r| r.0.clone()).collect();
-    let short: Vec<PhysicsReport> = runs.iter().map(|r| r.1.clone()).collect();
+    let ((full, short), ensembles): ((Vec<_>, Vec<_>), Vec<_>) = runs.into_iter().unzip();
     shortcuts_keep_the_verdicts(&cases, &full, &short);
     let now: Vec<Figures> = cases
         .iter()
-        .zip(&runs)
-        .map(|(c, (f, _, e))| Figures {
-            ensemble: Some(ensemble_figures(e)),
+        .zip(&full)
+        .zip(ensembles)
+        .map(|((c, f), e)| Figures {
+            ensemble: Some(e),
             ..figures(&c.name, f)
         })
         .collect();
