@@ -17,31 +17,46 @@
 //! with its triangles' winding reversed (written beside the demonstration). The result is
 //! the same motion done by a right hand on the mirror image of the object.
 //!
-//! **Retargeting** ([`retarget`]), per frame, warm-started from the previous frame:
-//! 1. *Keypoints.* Each keypoint is a target for a point of the robot (a [`KeypointMap`]:
-//!    the wrist on the palm's origin, each finger joint on the origin of the link it
-//!    moves, each tip on the tip link); the contact IK ([`crate::hand::ik`]) fits those
-//!    points to the keypoints with its non-penetration term on the object and its barrier
-//!    term on the table, so the hand follows the recording outside contact but never sinks
-//!    into the object or the support.
-//! 2. *Where the recording touches.* The recorded hand is modelled as capsules along its
-//!    bones ([`Bone`]: a radius a bone, an adult hand's); a bone touches the object on a
-//!    frame when its capsule comes within [`Params::touch_mm`] of the object's surface
-//!    (capsules that sink in touch too). Touch spans shorter than
-//!    [`Params::min_touch_frames`] are dropped and gaps of at most that many frames are
-//!    closed. The contact segment is where the recording touches, not where a larger robot
-//!    hand happens to come near.
-//! 3. *Correspondences.* For each touching bone (only the most distal of a finger with
-//!    [`Params::distal_contacts_only`]), the object point is the surface point nearest the
-//!    bone at the first frame of its touch span, held for the span: marker noise and small
-//!    regrasps do not make the grasp slide, and a bone that sinks through a thin wall later
-//!    does not flip its point to the wall's other face. The hand point is the surface sample ([`crate::synth::contacts::hand_samples`])
-//!    of the bone's link nearest the object point after step 1, chosen once per span so
-//!    the grasp is a fixed set of pairs.
-//! 4. *Contacts.* The IK is solved again with the correspondences and the keypoints of
-//!    the links that do not touch: the touching links go onto the surface (non-penetration
-//!    holds them at most [`crate::hand::ik::Params::penetration_tolerance_mm`] deep), the
-//!    rest follow the recording.
+//! **Retargeting** ([`retarget`]):
+//! 1. *Where the recording touches.* The recorded hand is modelled as capsules along its
+//!    bones ([`Bone`]: a radius a bone, an adult hand's). A bone's axis is walked from the
+//!    joint it hangs from through its own length; the point where its capsule is nearest
+//!    the surface, before the axis first enters the object, is where it touches, and the
+//!    direction from there to the axis is the face's normal on the finger's side. A fitted
+//!    hand sinks through a thin wall by centimetres (the shared take's fingertips come out
+//!    on the far side of a 2 mm wall), so the nearest face is a coin toss while the face
+//!    the finger reached first is not. A bone starts touching when its capsule comes within
+//!    [`Params::touch_mm`] and lets go past [`Params::release_mm`] (hysteresis against
+//!    marker noise); touch spans shorter than [`Params::min_touch_frames`] are dropped and
+//!    gaps of at most that many frames closed. The contact segment is where the recording
+//!    touches, not where a larger robot hand happens to come near.
+//! 2. *Held points.* A touch span is cut where its point moves more than
+//!    [`Params::regrasp_mm`] and stays away [`Params::regrasp_frames`] frames (a regrasp);
+//!    each part holds its median point, so jitter and small slides do not make the grasp
+//!    slide, and a finger that moves to a new place gets a new point. Of a finger's touching
+//!    bones only the most distal gives correspondences with
+//!    [`Params::distal_contacts_only`].
+//! 3. *Free fit.* Per frame, every keypoint is a target for a point of the robot (a
+//!    [`KeypointMap`]: the wrist on the palm's origin, each finger joint on the origin of
+//!    the link it moves, each tip on the tip link), fitted by the contact IK
+//!    ([`crate::hand::ik`]) without the object, warm-started from the previous frame's free
+//!    fit: the recording as it is, never caught on the object.
+//! 4. *Contacts.* Each touching bone's link gets its pad (the link's surface sample facing
+//!    the face, nearest the held point, chosen once per held point) on the point, and the
+//!    pad's inside 5 mm in on the point 5 mm off the face, so the link lies on the face's
+//!    side; the keypoints at the ends of touching bones are dropped (the touch stands for
+//!    them), the others stay targets. This is solved with the object's non-penetration term
+//!    and the table's barrier from two starts, the previous frame's solution carried along
+//!    with the object and the frame's free fit, keeping the lower end: the first carries a
+//!    grasp through frames where the recorded keypoints pass through the object, the second
+//!    gets a hand caught on a rim back to the side the recording is on. Off the object the
+//!    hand takes its free fit only once it is 10 mm clear; nearer, its targets move at most
+//!    5 mm a frame, so letting go of a grasp in a hollow slides the fingers out over the rim
+//!    instead of through the wall.
+//! 5. *Backward.* From the last frame back, each touching frame is solved again from the
+//!    next frame's solution and keeps it where it ends lower: a grasp the forward pass
+//!    reaches only some frames into a touch (a finger caught on a rim while the
+//!    recording's passes through it) is carried back to where the touch began.
 //!
 //! The keypoints are smoothed first (Savitzky-Golay, [`Params::smoothing_window`] frames,
 //! quadratic); the object's path is kept as recorded. [`Residuals`] says per frame how far
@@ -417,6 +432,14 @@ struct Resolved {
 pub struct Params {
     /// A bone touches the object when its capsule is within this of the surface [mm].
     pub touch_mm: f64,
+    /// A touching bone lets go when its capsule is farther than this from the surface [mm]
+    /// (hysteresis; at least `touch_mm`).
+    pub release_mm: f64,
+    /// A touch point that moves farther than this for [`Params::regrasp_frames`] frames
+    /// starts a new held point (a regrasp) [mm].
+    pub regrasp_mm: f64,
+    /// How long a touch point must stay away to count as a regrasp [frames].
+    pub regrasp_frames: usize,
     /// Touch spans shorter than this are dropped, gaps this short closed [frames].
     pub min_touch_frames: usize,
     /// Savitzky-Golay window of the keypoint smoothing [frames, odd]; 1 turns it off.
@@ -438,6 +461,9 @@ impl Default for Params {
     fn default() -> Self {
         Params {
             touch_mm: 4.0,
+            release_mm: 10.0,
+            regrasp_mm: 15.0,
+            regrasp_frames: 10,
             min_touch_frames: 3,
             smoothing_window: 7,
             distal_contacts_only: true,
@@ -502,43 +528,145 @@ fn palm_frame(k: &[Point3<f64>; 21]) -> Isometry3<f64> {
     )
 }
 
-/// Per bone and frame, the object-frame surface point the bone touches (see the module
-/// docs, step 2 and 3's smoothing); `None` where it does not touch.
+/// Where a bone touches the object on a frame (object frame): the surface point and the
+/// surface's normal on the side the bone is on.
+type Touch = Option<(Point3<f64>, Vector3<f64>)>;
+
+/// A bone's clearance from the object on a frame [m], with the surface point and normal of
+/// [`Touch`] ([`bone_touch`]).
+type Seen = Option<(f64, Point3<f64>, Vector3<f64>)>;
+
+/// Per bone and frame, where the bone touches (see the module docs, steps 2 and 3); `None`
+/// where it does not touch.
 fn touches(
     rec: &Recording,
     bones: &[(usize, usize, f64, LinkId)],
     object: &ObjectGeometry,
     params: &Params,
-) -> Vec<Vec<Option<Point3<f64>>>> {
+) -> Vec<Vec<Touch>> {
     let n = rec.len();
-    let samples = 5;
     bones
         .iter()
         .map(|&(a, b, r, _)| {
-            let mut points: Vec<Option<Point3<f64>>> = (0..n)
+            // The joint the bone hangs from: the side of the surface the finger comes from.
+            let parent = bones.iter().find(|x| x.1 == a).map_or(a, |x| x.0);
+            let seen: Vec<Seen> = (0..n)
                 .map(|t| {
                     let inv = rec.object[t].inverse();
-                    let (pa, pb) = (inv * rec.keypoints[t][a], inv * rec.keypoints[t][b]);
-                    (0..samples)
-                        .map(|i| {
-                            let s = pa + (pb - pa) * (i as f64 / (samples - 1) as f64);
-                            object.surface_point(&s)
-                        })
-                        .min_by(|x, y| x.signed_distance.total_cmp(&y.signed_distance))
-                        .filter(|s| s.signed_distance - r <= params.touch_mm * 1e-3)
-                        .map(|s| s.point)
+                    let k = |i: usize| inv * rec.keypoints[t][i];
+                    bone_touch(object, &k(parent), &k(a), &k(b), r)
                 })
                 .collect();
+            let mut points = hysteresis(&seen, params);
             debounce(&mut points, params.min_touch_frames);
-            hold_spans(&mut points);
+            hold_spans(&mut points, params.regrasp_mm * 1e-3, params.regrasp_frames);
             points
+        })
+        .collect()
+}
+
+/// Where the capsule `a`-`b` of radius `r`, hanging from the joint `parent`, is nearest the
+/// object (object frame): its clearance (axis to surface minus the radius, negative when the
+/// capsule sinks in), the surface point there, on the side the finger comes from, and the
+/// direction from that point to the axis (the face's normal on that side). The
+/// axis is walked from `parent` through `a` to `b`; samples past the first one inside the
+/// object are not used, so a bone that passes through a thin wall touches the face it
+/// reached first, not whichever face happens to be nearer. A walk that starts inside the
+/// object falls back to the nearest surface point of the bone's own samples.
+fn bone_touch(
+    object: &ObjectGeometry,
+    parent: &Point3<f64>,
+    a: &Point3<f64>,
+    b: &Point3<f64>,
+    r: f64,
+) -> Seen {
+    const STEP: f64 = 1e-3;
+    let sample = |p: Point3<f64>| object.surface_point(&p);
+    let lead = (a - parent).norm();
+    let len = lead + (b - a).norm();
+    let steps = ((len / STEP).ceil() as usize).clamp(1, 400);
+    let mut best: Seen = None;
+    let mut last_outside: Seen = None;
+    for i in 0..=steps {
+        let s = len * i as f64 / steps as f64;
+        let p = if s <= lead && lead > 0.0 {
+            parent + (a - parent) * (s / lead)
+        } else {
+            let d = (b - a).norm();
+            if d > 0.0 {
+                a + (b - a) * ((s - lead) / d).min(1.0)
+            } else {
+                *a
+            }
+        };
+        let sp = sample(p);
+        if sp.signed_distance < 0.0 {
+            if i == 0 {
+                break;
+            }
+            // Entered the object: the face reached first is where it touches.
+            let across = (sp.point - p)
+                .try_normalize(1e-9)
+                .unwrap_or_else(Vector3::z);
+            return Some(
+                best.or(last_outside)
+                    .map_or((sp.signed_distance - r, sp.point, across), |x| {
+                        (x.0.min(-r), x.1, x.2)
+                    }),
+            );
+        }
+        let Some(normal) = (p - sp.point).try_normalize(1e-9) else {
+            continue;
+        };
+        let here = (sp.signed_distance - r, sp.point, normal);
+        last_outside = Some(here);
+        if s >= lead && best.is_none_or(|x| here.0 < x.0) {
+            best = Some(here);
+        }
+    }
+    if best.is_some() {
+        return best;
+    }
+    // The walk starts inside: the bone's own samples, nearest surface point.
+    (0..5)
+        .map(|i| {
+            let p = a + (b - a) * (i as f64 / 4.0);
+            (p, sample(p))
+        })
+        .min_by(|x, y| x.1.signed_distance.total_cmp(&y.1.signed_distance))
+        .map(|(p, sp)| {
+            let n = (sp.point - p)
+                .try_normalize(1e-9)
+                .unwrap_or_else(Vector3::z);
+            (sp.signed_distance - r, sp.point, n)
+        })
+}
+
+/// Touch with hysteresis: a bone starts touching when its clearance falls to
+/// [`Params::touch_mm`] and stops when it rises past [`Params::release_mm`], so a fingertip
+/// whose recorded clearance wanders around the threshold with marker noise does not
+/// flicker in and out of the grasp.
+fn hysteresis(seen: &[Seen], params: &Params) -> Vec<Touch> {
+    let (on, off) = (
+        params.touch_mm * 1e-3,
+        params.release_mm.max(params.touch_mm) * 1e-3,
+    );
+    let mut touching = false;
+    seen.iter()
+        .map(|s| {
+            let Some((d, p, normal)) = *s else {
+                touching = false;
+                return None;
+            };
+            touching = if touching { d <= off } else { d <= on };
+            touching.then_some((p, normal))
         })
         .collect()
 }
 
 /// Closes gaps of at most `k` frames inside a touch (repeating the last point) and drops
 /// touch spans shorter than `k`.
-fn debounce(points: &mut [Option<Point3<f64>>], k: usize) {
+fn debounce<T: Copy>(points: &mut [Option<T>], k: usize) {
     let n = points.len();
     let mut t = 0;
     while t < n {
@@ -577,7 +705,7 @@ fn debounce(points: &mut [Option<Point3<f64>>], k: usize) {
 
 /// Drops a bone's touch on frames where a bone farther along its chain (one starting where
 /// it ends, transitively) touches too.
-fn keep_most_distal(touch: &mut [Vec<Option<Point3<f64>>>], bones: &[(usize, usize, f64, LinkId)]) {
+fn keep_most_distal(touch: &mut [Vec<Touch>], bones: &[(usize, usize, f64, LinkId)]) {
     let descendants: Vec<Vec<usize>> = (0..bones.len())
         .map(|b| {
             let mut out = Vec::new();
@@ -604,13 +732,58 @@ fn keep_most_distal(touch: &mut [Vec<Option<Point3<f64>>>], bones: &[(usize, usi
     }
 }
 
-/// Every frame of a touch span gets the span's first point.
-fn hold_spans(points: &mut [Option<Point3<f64>>]) {
-    let mut first = None;
-    for p in points.iter_mut() {
-        match p {
-            Some(x) => *p = Some(*first.get_or_insert(*x)),
-            None => first = None,
+/// Holds each touch span's point still: a span is cut where its recorded point moves more
+/// than `regrasp` from where the current part of it began and stays away for at least
+/// `min_frames` frames (a regrasp, a finger sliding to a new place), and every frame of a
+/// part gets the part's median point (per axis). Marker noise and jitter under `regrasp` do
+/// not make the grasp slide; a finger that moves to a new face or end gets a new point.
+fn hold_spans(points: &mut [Touch], regrasp: f64, min_frames: usize) {
+    let n = points.len();
+    let mut t = 0;
+    while t < n {
+        if points[t].is_none() {
+            t += 1;
+            continue;
+        }
+        let start = t;
+        while t < n && points[t].is_some() {
+            t += 1;
+        }
+        let span: Vec<(Point3<f64>, Vector3<f64>)> =
+            points[start..t].iter().flatten().copied().collect();
+        let mut cuts = vec![0];
+        let mut anchor = span[0].0;
+        let mut i = 1;
+        while i < span.len() {
+            let away = span[i..]
+                .iter()
+                .take_while(|p| (p.0 - anchor).norm() > regrasp)
+                .count();
+            if away >= min_frames.max(1) {
+                cuts.push(i);
+                anchor = span[i + away / 2].0;
+                i += away;
+            } else {
+                i += away.max(1);
+            }
+        }
+        cuts.push(span.len());
+        for w in cuts.windows(2) {
+            let part = &span[w[0]..w[1]];
+            let median = |axis: usize| {
+                let mut v: Vec<f64> = part.iter().map(|p| p.0[axis]).collect();
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            let m = Point3::new(median(0), median(1), median(2));
+            let normal = part
+                .iter()
+                .fold(Vector3::zeros(), |a, p| a + p.1)
+                .try_normalize(1e-9)
+                .unwrap_or(part[0].1);
+            for p in &mut points[start + w[0]..start + w[1]] {
+                *p = Some((m, normal));
+            }
         }
     }
 }
@@ -662,15 +835,11 @@ fn flat_hand(robot: &Robot) -> Vec<f64> {
 /// it touches (the contacts stay where they were), the wrist away from the object (the wrist
 /// stays), blended linearly over [`Params::scale_blend_frames`] frames before and after each
 /// touch.
-fn scale_centres(
-    rec: &Recording,
-    touch: &[Vec<Option<Point3<f64>>>],
-    blend: usize,
-) -> Vec<Point3<f64>> {
+fn scale_centres(rec: &Recording, touch: &[Vec<Touch>], blend: usize) -> Vec<Point3<f64>> {
     let n = rec.len();
     let centroid: Vec<Option<Point3<f64>>> = (0..n)
         .map(|t| {
-            let pts: Vec<Point3<f64>> = touch.iter().filter_map(|b| b[t]).collect();
+            let pts: Vec<Point3<f64>> = touch.iter().filter_map(|b| b[t].map(|x| x.0)).collect();
             (!pts.is_empty()).then(|| {
                 let sum = pts.iter().fold(Vector3::zeros(), |a, p| a + p.coords);
                 rec.object[t] * Point3::from(sum / pts.len() as f64)
@@ -700,27 +869,45 @@ fn scale_centres(
         .collect()
 }
 
-/// The surface sample of `link` (at world pose `pose`) closest to the object, in the link
-/// frame, and the object's surface point nearest it (object frame; `inv` is the object's
-/// pose inverted): where the robot's link touches, on the side of the surface it is on.
-fn closest_pair(
-    samples: &[(LinkId, Point3<f64>)],
+/// The pad of `link` (at world pose `pose`) that goes onto the world point `at` of a face
+/// whose normal there is `normal`: of the link's surface samples facing the face (outward
+/// normal against the face's), the one nearest `at` (link frame). Pulling it onto the point
+/// puts the link on the face's side, not across the surface; a link with no sample facing
+/// the face gives its sample nearest `at`.
+fn pad(
+    samples: &[(LinkId, Point3<f64>, Vector3<f64>)],
     link: LinkId,
     pose: &Isometry3<f64>,
-    object: &ObjectGeometry,
-    inv: &Isometry3<f64>,
-) -> (Point3<f64>, Point3<f64>) {
-    samples
-        .iter()
-        .filter(|(l, _)| *l == link)
-        .map(|(_, p)| (*p, object.surface_point(&(inv * (pose * p)))))
-        .min_by(|a, b| a.1.signed_distance.total_cmp(&b.1.signed_distance))
-        .map(|(p, s)| (p, s.point))
-        .unwrap_or_else(|| {
-            let p = Point3::origin();
-            (p, object.surface_point(&(inv * (pose * p))).point)
-        })
+    at: &Point3<f64>,
+    normal: &Vector3<f64>,
+) -> (Point3<f64>, Vector3<f64>) {
+    let nearest = |facing: bool| {
+        samples
+            .iter()
+            .filter(|(l, _, n)| *l == link && (!facing || (pose * n).dot(normal) < -0.7))
+            .map(|(_, p, n)| (*p, *n))
+            .min_by(|x, y| {
+                (pose * x.0 - at)
+                    .norm()
+                    .total_cmp(&(pose * y.0 - at).norm())
+            })
+    };
+    nearest(true)
+        .or_else(|| nearest(false))
+        .unwrap_or_else(|| (Point3::origin(), Vector3::zeros()))
 }
+
+/// How far inside a pad its second correspondence sits, and how far off the surface its
+/// target [m] (see [`Tracker::frame`]).
+const PAD_DEPTH_M: f64 = 0.005;
+
+/// Off the object, a hand closer to it than this keeps to its previous frame's solution
+/// [m] (see [`Tracker::frame`]).
+const RELEASE_CLEARANCE_M: f64 = 0.01;
+
+/// Off the object and near it, how far a target may be from where its point was on the
+/// previous frame [m] (see [`Tracker::within_reach`]).
+const RELEASE_STEP_M: f64 = 0.005;
 
 /// Per keypoint, how far the robot's point is from its target [mm]: mean, largest, and the
 /// largest's keypoint.
@@ -744,18 +931,45 @@ fn residual(
     )
 }
 
+/// A touching bone's correspondence for one held point: the point and the face's normal
+/// there (object frame), and the link's pad on it with its outward normal (link frame).
+#[derive(Clone, Copy, Debug)]
+struct HeldPad {
+    object_point: Point3<f64>,
+    normal: Vector3<f64>,
+    hand_point: Point3<f64>,
+    pad_normal: Vector3<f64>,
+}
+
+/// One frame as [`Tracker::frame`] solved it.
+struct Solved {
+    wrist: Isometry3<f64>,
+    q: Vec<f64>,
+    /// The correspondences written to the demonstration.
+    contacts: Vec<ResolvedContact>,
+    /// Everything the frame was solved for, and the objective it ended at.
+    targets: Vec<ResolvedContact>,
+    objective: f64,
+}
+
 /// The state carried from frame to frame by [`retarget`].
 struct Tracker<'a> {
     robot: &'a Robot,
     solver: IkSolver<'a>,
-    samples: Vec<(LinkId, Point3<f64>)>,
+    samples: Vec<(LinkId, Point3<f64>, Vector3<f64>)>,
     poses: Vec<Isometry3<f64>>,
     wrist: Isometry3<f64>,
     q: Vec<f64>,
-    object: &'a ObjectGeometry,
+    /// The keypoint fit without the object ([`Tracker::frame`]), and its state.
+    free_solver: IkSolver<'a>,
+    free_wrist: Isometry3<f64>,
+    free_q: Vec<f64>,
+    /// The previous frame's link poses, carried along with the object when it held it.
+    prev_poses: Vec<Isometry3<f64>>,
+    sdf: &'a crate::geometry::ObjectSdf,
     /// The correspondence (hand point, object point) of each bone's current touch span,
     /// chosen at its first frame.
-    span: Vec<Option<(Point3<f64>, Point3<f64>)>>,
+    span: Vec<Option<HeldPad>>,
 }
 
 impl Tracker<'_> {
@@ -766,11 +980,23 @@ impl Tracker<'_> {
         resolved: &Resolved,
         pose: &Isometry3<f64>,
         k: &[Point3<f64>; 21],
-        touch: impl Fn(usize) -> Option<Point3<f64>>,
+        touch: impl Fn(usize) -> Touch,
         contact_weight: usize,
-    ) -> Vec<ResolvedContact> {
+    ) -> Solved {
         let inv = pose.inverse();
-        let targets: Vec<ResolvedContact> = resolved
+        self.robot
+            .forward_kinematics(&self.wrist, &self.q, &mut self.prev_poses);
+        // The keypoints at the ends of a touching bone are not targets: where the recording
+        // touches, its keypoints are the least trustworthy (a fitted hand sinks through a
+        // thin wall and puts a fingertip on its far side), and the touch stands for them.
+        let touching: Vec<usize> = resolved
+            .bones
+            .iter()
+            .enumerate()
+            .filter(|(b, _)| touch(*b).is_some())
+            .flat_map(|(_, bone)| [bone.0, bone.1])
+            .collect();
+        let all_targets: Vec<ResolvedContact> = resolved
             .keypoints
             .iter()
             .map(|&(i, link, p)| ResolvedContact {
@@ -779,42 +1005,169 @@ impl Tracker<'_> {
                 object_point: inv * k[i],
             })
             .collect();
-        self.solver
-            .solve(pose, &targets, &mut self.wrist, &mut self.q);
+        let targets: Vec<ResolvedContact> = resolved
+            .keypoints
+            .iter()
+            .zip(&all_targets)
+            .filter(|((i, _, _), _)| !touching.contains(i))
+            .map(|(_, c)| *c)
+            .collect();
+        // The recording as it is: every keypoint, the object ignored, from the previous
+        // frame's free fit, so the hand follows the recording and is never caught on the
+        // object's far side.
+        self.free_solver
+            .solve(pose, &all_targets, &mut self.free_wrist, &mut self.free_q);
+        // Where the pads are chosen: the free fit (the previous frame's solution is tried
+        // too, see `best_of`).
         self.robot
-            .forward_kinematics(&self.wrist, &self.q, &mut self.poses);
+            .forward_kinematics(&self.free_wrist, &self.free_q, &mut self.poses);
         let mut contacts = Vec::new();
+        let mut centres = Vec::new();
         for (b, &(_, _, _, link)) in resolved.bones.iter().enumerate() {
-            if touch(b).is_none() {
+            let Some((recorded, normal)) = touch(b) else {
                 self.span[b] = None;
                 continue;
+            };
+            if self.span[b].is_some_and(|s| s.object_point != recorded) {
+                self.span[b] = None;
             }
-            let (samples, poses, object) = (&self.samples, &self.poses, self.object);
-            let (hand_point, object_point) = *self.span[b].get_or_insert_with(|| {
-                closest_pair(samples, link, &poses[link.index()], object, &inv)
+            let (samples, poses) = (&self.samples, &self.poses);
+            let held = *self.span[b].get_or_insert_with(|| {
+                let (hand_point, pad_normal) = pad(
+                    samples,
+                    link,
+                    &poses[link.index()],
+                    &(pose * recorded),
+                    &(pose * normal),
+                );
+                HeldPad {
+                    object_point: recorded,
+                    normal,
+                    hand_point,
+                    pad_normal,
+                }
             });
             contacts.push(ResolvedContact {
                 link,
-                hand_point,
-                object_point,
+                hand_point: held.hand_point,
+                object_point: held.object_point,
+            });
+            // The pad's inside, off the surface by as much: the link lies on the face's side.
+            centres.push(ResolvedContact {
+                link,
+                hand_point: held.hand_point - held.pad_normal * PAD_DEPTH_M,
+                object_point: held.object_point + held.normal * PAD_DEPTH_M,
             });
         }
         if contacts.is_empty() {
-            return contacts;
+            // Off the object the hand may jump to its free fit only while it is clear of the
+            // object: a hand letting go of a grasp leaves it continuously, not through it.
+            let objective = if self.clearance(pose) > RELEASE_CLEARANCE_M {
+                self.best_of(pose, &targets)
+            } else {
+                let near = self.within_reach(pose, &targets);
+                self.carry_on(pose, &near)
+            };
+            return self.solved(contacts, targets, objective);
         }
         let mut all: Vec<ResolvedContact> = Vec::new();
         for _ in 0..contact_weight.max(1) {
             all.extend_from_slice(&contacts);
+            all.extend_from_slice(&centres);
         }
         all.extend(
             targets
                 .iter()
                 .filter(|c| !contacts.iter().any(|x| x.link == c.link)),
         );
-        self.solver.solve(pose, &all, &mut self.wrist, &mut self.q);
+        let objective = self.best_of(pose, &all);
+        self.solved(contacts, all, objective)
+    }
+
+    fn solved(
+        &self,
+        contacts: Vec<ResolvedContact>,
+        targets: Vec<ResolvedContact>,
+        objective: f64,
+    ) -> Solved {
+        Solved {
+            wrist: self.wrist,
+            q: self.q.clone(),
+            contacts,
+            targets,
+            objective,
+        }
+    }
+
+    /// Solves `targets` with the object from the previous frame's solution.
+    fn carry_on(&mut self, pose: &Isometry3<f64>, targets: &[ResolvedContact]) -> f64 {
+        let end = self
+            .solver
+            .solve(pose, targets, &mut self.wrist, &mut self.q)
+            .objective_end;
         self.robot
             .forward_kinematics(&self.wrist, &self.q, &mut self.poses);
-        contacts
+        end
+    }
+
+    /// `targets` brought within [`RELEASE_STEP_M`] of where their points were on the
+    /// previous frame: near the object the hand moves there at a hand's pace, so a finger
+    /// in a hollow slides out over its rim instead of being swept through it when the
+    /// recording's targets jump.
+    fn within_reach(
+        &self,
+        pose: &Isometry3<f64>,
+        targets: &[ResolvedContact],
+    ) -> Vec<ResolvedContact> {
+        let inv = pose.inverse();
+        targets
+            .iter()
+            .map(|c| {
+                let from = self.prev_poses[c.link.index()] * c.hand_point;
+                let to = pose * c.object_point;
+                let d = (to - from).norm();
+                let to = if d > RELEASE_STEP_M {
+                    from + (to - from) * (RELEASE_STEP_M / d)
+                } else {
+                    to
+                };
+                ResolvedContact {
+                    object_point: inv * to,
+                    ..*c
+                }
+            })
+            .collect()
+    }
+
+    /// How far the previous frame's hand (its link poses, `self.poses` before this frame's
+    /// solve) is from the object at `pose` [m], over the hand's surface samples.
+    fn clearance(&self, pose: &Isometry3<f64>) -> f64 {
+        let inv = pose.inverse();
+        self.samples
+            .iter()
+            .map(|(l, p, _)| self.sdf.distance(&(inv * (self.prev_poses[l.index()] * p))))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Solves `targets` with the object from two starts, the previous frame's solution and
+    /// this frame's free fit, and keeps the one that ends lower: the previous solution
+    /// carries a grasp through frames where the recording's keypoints pass through the
+    /// object, the free fit gets a hand caught on the object's wrong side back.
+    fn best_of(&mut self, pose: &Isometry3<f64>, targets: &[ResolvedContact]) -> f64 {
+        let (mut w2, mut q2) = (self.free_wrist, self.free_q.clone());
+        let from_free = self.solver.solve(pose, targets, &mut w2, &mut q2);
+        let from_prev = self
+            .solver
+            .solve(pose, targets, &mut self.wrist, &mut self.q);
+        let mut end = from_prev.objective_end;
+        if from_free.objective_end < end {
+            self.wrist = w2;
+            self.q = q2;
+            end = from_free.objective_end;
+        }
+        self.robot
+            .forward_kinematics(&self.wrist, &self.q, &mut self.poses);
+        end
     }
 }
 
@@ -857,11 +1210,15 @@ pub fn retarget(
     let mut tracker = Tracker {
         robot,
         solver: IkSolver::new(robot, support, Some(&object.sdf), ik.clone()),
-        samples: crate::synth::contacts::hand_samples(robot, 0.004),
+        samples: crate::synth::contacts::hand_surface(robot, 0.004),
         poses,
+        free_solver: IkSolver::new(robot, support, None, ik.clone()),
+        free_wrist: wrist,
+        free_q: q.clone(),
+        prev_poses: robot.new_link_poses(),
+        sdf: &object.sdf,
         wrist,
         q,
-        object,
         span: vec![None; resolved.bones.len()],
     };
     let mut out = Retargeted {
@@ -872,27 +1229,53 @@ pub fn retarget(
         touch: None,
         scale,
     };
+    // Forward: each frame from the previous one's solution or its free fit.
+    let mut solved: Vec<Solved> = Vec::with_capacity(n);
     for t in 0..n {
         // A hand that holds the object starts the frame carried along with it.
-        if t > 0 && !out.contacts[t - 1].is_empty() {
+        if t > 0 && !solved[t - 1].contacts.is_empty() {
             tracker.wrist = rec.object[t] * rec.object[t - 1].inverse() * tracker.wrist;
         }
-        let contacts = tracker.frame(
+        solved.push(tracker.frame(
             &resolved,
             &rec.object[t],
             &scaled[t],
             |b| touch[b][t],
             params.contact_weight,
-        );
+        ));
+    }
+    // Backward: a grasp the forward pass reaches only some frames into a touch (a finger
+    // caught on a rim while the recording's passes through it) is carried back to the
+    // frames before, wherever it ends lower.
+    for t in (0..n.saturating_sub(1)).rev() {
+        if solved[t].contacts.is_empty() || solved[t + 1].contacts.is_empty() {
+            continue;
+        }
+        let mut wrist = rec.object[t] * rec.object[t + 1].inverse() * solved[t + 1].wrist;
+        let mut q = solved[t + 1].q.clone();
+        let end = tracker
+            .solver
+            .solve(&rec.object[t], &solved[t].targets, &mut wrist, &mut q)
+            .objective_end;
+        if end < solved[t].objective {
+            solved[t].wrist = wrist;
+            solved[t].q = q;
+            solved[t].objective = end;
+        }
+    }
+    let mut poses = robot.new_link_poses();
+    for (t, frame) in solved.into_iter().enumerate() {
+        robot.forward_kinematics(&frame.wrist, &frame.q, &mut poses);
+        let contacts = frame.contacts;
         if !contacts.is_empty() {
             out.touch = Some([out.touch.map_or(t, |[a, _]| a), t]);
         }
-        let (mean, max, at) = residual(&resolved.keypoints, &tracker.poses, &scaled[t]);
+        let (mean, max, at) = residual(&resolved.keypoints, &poses, &scaled[t]);
         out.residuals.mean_mm.push(mean);
         out.residuals.max_mm.push(max);
         out.residuals.worst.push(KEYPOINTS[at].to_string());
-        out.wrists.push(tracker.wrist);
-        out.joints.push(tracker.q.clone());
+        out.wrists.push(frame.wrist);
+        out.joints.push(frame.q);
         out.contacts.push(
             contacts
                 .iter()
@@ -957,7 +1340,7 @@ mod tests {
 
     #[test]
     fn short_touches_are_dropped_and_short_gaps_closed() {
-        let p = Some(Point3::origin());
+        let p = Some(Point3::<f64>::origin());
         let mut v = vec![
             None, p, p, None, None, p, p, p, None, p, None, None, None, None,
         ];
@@ -979,6 +1362,91 @@ mod tests {
                 false, false, false, false, false, true, true, true, false, false, false
             ]
         );
+    }
+
+    #[test]
+    fn a_touch_holds_its_median_and_a_regrasp_starts_a_new_point() {
+        let n = Vector3::x();
+        let at = |x: f64, t: usize| Some((Point3::new(x + 0.002 * (t % 3) as f64, 0.0, 0.0), n));
+        // 12 frames about A, 4 frames 30 mm away (too short for a regrasp), 8 about A, 12
+        // frames about B = A + 30 mm (a regrasp), then no touch.
+        let mut v: Vec<Touch> = (0..12).map(|t| at(0.0, t)).collect();
+        v.extend((0..4).map(|t| at(0.03, t)));
+        v.extend((0..8).map(|t| at(0.0, t)));
+        v.extend((0..12).map(|t| at(0.03, t)));
+        v.push(None);
+        hold_spans(&mut v, 0.015, 10);
+        let x: Vec<f64> = v.iter().map(|p| p.map_or(f64::NAN, |p| p.0.x)).collect();
+        // The excursion is held at the first part's median (per axis over its 24 frames),
+        // the regrasp gets the second part's.
+        assert!(x[..24].iter().all(|&a| a == x[0]), "{x:?}");
+        assert!((x[0] - 0.002).abs() < 1e-12, "{}", x[0]);
+        assert!(
+            x[24..36].iter().all(|&a| (a - 0.032).abs() < 1e-12),
+            "{x:?}"
+        );
+        assert!(v[36].is_none());
+    }
+
+    #[test]
+    fn a_touch_lasts_until_the_bone_is_released() {
+        let params = Params::default();
+        let seen: Vec<Seen> = [5.0, 3.0, 6.0, 9.0, 11.0, 5.0, 3.5]
+            .iter()
+            .map(|mm| Some((mm * 1e-3, Point3::origin(), Vector3::x())))
+            .collect();
+        let on: Vec<bool> = hysteresis(&seen, &params)
+            .iter()
+            .map(Option::is_some)
+            .collect();
+        assert_eq!(on, [false, true, true, true, false, false, true]);
+    }
+
+    #[test]
+    fn a_bone_through_a_thin_wall_touches_the_face_it_came_from() {
+        // A wall 2 mm thick (x in [-1, 1] mm), 60 mm square.
+        let mut mesh = crate::synth::objects::object_mesh(crate::synth::objects::ObjectKind::Cube);
+        for v in &mut mesh.vertices {
+            v.x *= 0.002 / 0.06;
+        }
+        let wall = ObjectGeometry::new(mesh).unwrap();
+        // A finger coming from the -x side whose tip keypoint ends past the wall, nearer
+        // its +x face: it touches the -x face.
+        let mm = |x: f64, y: f64, z: f64| Point3::new(x, y, z) * 1e-3;
+        let (d, p, n) = bone_touch(
+            &wall,
+            &mm(-30.0, 0.0, 20.0),
+            &mm(-10.0, 0.0, 0.0),
+            &mm(8.0, 0.0, 0.0),
+            0.0075,
+        )
+        .unwrap();
+        assert!(d < 0.0, "clearance {d}");
+        assert!((p.x + 0.001).abs() < 1e-4, "touch at {p}");
+        assert!(n.x < -0.9, "normal {n}");
+        // The same bone from the +x side touches the +x face.
+        let (_, p, n) = bone_touch(
+            &wall,
+            &mm(30.0, 0.0, 20.0),
+            &mm(10.0, 0.0, 0.0),
+            &mm(-8.0, 0.0, 0.0),
+            0.0075,
+        )
+        .unwrap();
+        assert!(
+            (p.x - 0.001).abs() < 1e-4 && n.x > 0.9,
+            "touch at {p}, normal {n}"
+        );
+        // Off the wall by 20 mm: a clearance of 20 mm less the radius.
+        let (d, _, _) = bone_touch(
+            &wall,
+            &mm(-60.0, 0.0, 0.0),
+            &mm(-40.0, 0.0, 0.0),
+            &mm(-21.0, 0.0, 0.0),
+            0.0075,
+        )
+        .unwrap();
+        assert!((d - 0.0125).abs() < 1e-4, "clearance {d}");
     }
 
     #[test]

@@ -147,6 +147,11 @@ pub struct IkSummary {
     pub converged_fraction: f64,
     /// Frames that did not meet the stop rule, by output frame.
     pub not_converged_frames: Vec<usize>,
+    /// Frames solved again from the rigid transfer of the recorded hand because the hand
+    /// carried along from the previous frame was caught far from its contacts (see
+    /// `hand::ik::run`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub restarted_frames: Vec<usize>,
     /// Those frames counted by why their solve ended (`penetration_limited`,
     /// `barrier_limited`, `iteration_cap`, `local_minimum`, `non_finite`).
     #[serde(default)]

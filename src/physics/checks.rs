@@ -14,10 +14,16 @@
 //! - **Simulation displacement** (ObMan, GraspTTA): at sampled in-contact frames, a fresh
 //!   world with the hand frozen at that frame, the object at the demonstration's pose,
 //!   gravity and no support or barrier; the object's displacement after
-//!   [`Params::stability_steps`] steps of [`Params::stability_dt_s`].
+//!   [`Params::stability_steps`] steps of [`Params::stability_dt_s`]. In `validate`, frames
+//!   where the demonstration's object rests on a support (within [`Params::support_gap_m`])
+//!   are not sampled: there the support holds it, and a hand that has only begun to close
+//!   (a recording's first touch) is not asked to. A contact segment spent entirely on a
+//!   support (a push) has no sampled frame.
 //! - **Release**: after the last contact frame, the object must end within
 //!   [`Params::support_gap_m`] of a support and move less than [`Params::rest_motion_m`] over
-//!   the last [`Params::rest_window_s`]. When the object's largest position error comes
+//!   the last [`Params::rest_window_s`], counted from the first frame the hand no longer
+//!   touches it (a take that ends half a second after the fingers open still shows the
+//!   object settling out of them, which is the hand's doing, not a failure to rest). When the object's largest position error comes
 //!   after the release and the hand touched it in between, the position error's reason says
 //!   the hand pushed the released object ([`find_push`]): the carry held, the retreat did not
 //!   clear the object. The object's largest turn after the release is reported with the
@@ -400,14 +406,23 @@ pub fn sim_displacement(
 }
 
 /// The in-contact frames to test for stability: `samples` frames evenly spread over the
-/// segment, both ends included, without repeats.
-pub fn stability_frames(segment: ContactSegment, samples: usize) -> Vec<usize> {
-    let len = segment.end - segment.start;
+/// segment's frames that `eligible` accepts, both ends included, without repeats.
+pub fn stability_frames(
+    segment: ContactSegment,
+    samples: usize,
+    eligible: impl Fn(usize) -> bool,
+) -> Vec<usize> {
+    let pool: Vec<usize> = (segment.start..=segment.end)
+        .filter(|&f| eligible(f))
+        .collect();
+    let Some(last) = pool.len().checked_sub(1) else {
+        return Vec::new();
+    };
     let mut frames: Vec<usize> = match samples {
         0 => Vec::new(),
-        1 => vec![segment.start + len / 2],
+        1 => vec![pool[last / 2]],
         k => (0..k)
-            .map(|i| segment.start + (i * len + (k - 1) / 2) / (k - 1))
+            .map(|i| pool[(i * last + (k - 1) / 2) / (k - 1)])
             .collect(),
     };
     frames.dedup();

@@ -563,7 +563,7 @@ pub fn hold(
     let Some(segment) = demo.contact_segment() else {
         return Ok(None);
     };
-    let stability = stability(robot, demo, &object, segment, params);
+    let stability = stability(robot, demo, &object, segment, |_| true, params);
     let carry = carry(robot, demo, &object, params)?.expect("the demonstration has contacts");
     let reasons = verdict::hold(&stability, &carry, params);
     Ok(Some(GraspHold {
@@ -948,7 +948,11 @@ fn check_replay(
     }
 
     let t_stab = Instant::now();
-    let stability = segment.map(|s| stability(robot, demo, object, s, params));
+    let off_support = |f: usize| {
+        checks::nearest_support(object, &demo.frames[f].object, &named(supports))
+            .is_none_or(|(_, gap)| gap > params.support_gap_m)
+    };
+    let stability = segment.map(|s| stability(robot, demo, object, s, off_support, params));
     let stability_s = t_stab.elapsed().as_secs_f64();
 
     let mut release = release(
@@ -995,16 +999,17 @@ fn check_replay(
     }
 }
 
-/// Simulation displacement at sampled frames of the contact segment `s`: the hand frozen,
-/// each frame in a world of its own.
+/// Simulation displacement at sampled frames of the contact segment `s` that `eligible`
+/// accepts: the hand frozen, each frame in a world of its own.
 fn stability(
     robot: &Robot,
     demo: &Demo,
     object: &ObjectShape,
     s: ContactSegment,
+    eligible: impl Fn(usize) -> bool,
     params: &Params,
 ) -> Stability {
-    let frames = checks::stability_frames(s, params.stability_samples);
+    let frames = checks::stability_frames(s, params.stability_samples, eligible);
     // Independent worlds: in parallel, results in frame order.
     let displacement: Vec<f64> = frames
         .par_iter()
@@ -1043,7 +1048,16 @@ fn release(
     let last = demo.frames.len() - 1;
     segment.filter(|s| s.end < last).map(|s| {
         let pose = &trace.object[last];
-        let window = ((params.rest_window_s * demo.fps).ceil() as usize).min(last - s.end);
+        // The window: the last `rest_window_s`, from the first frame the hand no longer
+        // touches the object on (its motion while the hand still touches it is the
+        // hand's, judged by the push check).
+        let let_go = (s.end + 1..=last)
+            .rev()
+            .find(|&f| touching.get(f).copied().unwrap_or(false))
+            .map_or(s.end + 1, |f| f + 1);
+        let window = ((params.rest_window_s * demo.fps).ceil() as usize)
+            .min(last - s.end)
+            .min(last.saturating_sub(let_go));
         let motion = trace.object[last - window..]
             .iter()
             .map(|p| (p.translation.vector - pose.translation.vector).norm())

@@ -158,7 +158,7 @@ pub struct Params {
     pub max_sim_displacement_m: f64,
 
     /// Final stretch [s] over which the released object must stay put to count as at rest;
-    /// default 0.5 (clipped to the frames after the release).
+    /// default 0.5 (clipped to the frames after the hand last touches it).
     pub rest_window_s: f64,
     /// Largest distance [m] the released object may move from its final position over the
     /// rest window; default 0.01. Not a speed threshold: a round object (the apple's faceted

@@ -103,6 +103,7 @@ pub(super) fn warp_report(
         report.ik = Some(IkSummary {
             converged_fraction: st.converged_fraction,
             not_converged_frames: st.not_converged.clone(),
+            restarted_frames: st.restarted.clone(),
             mean_iterations: st.mean_iterations,
             max_iterations: st.max_iterations_used,
             min_barrier_clearance_mm: st.min_barrier_clearance_mm,

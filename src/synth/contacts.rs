@@ -74,6 +74,14 @@ pub enum TrackingError {
 /// Surface points of every link's collision shapes (link frame), without the points buried
 /// inside another shape of the same link.
 pub fn hand_samples(robot: &Robot, spacing_m: f64) -> Vec<(LinkId, Point3<f64>)> {
+    hand_surface(robot, spacing_m)
+        .into_iter()
+        .map(|(l, p, _)| (l, p))
+        .collect()
+}
+
+/// [`hand_samples`] with each sample's outward normal (link frame).
+pub fn hand_surface(robot: &Robot, spacing_m: f64) -> Vec<(LinkId, Point3<f64>, Vector3<f64>)> {
     let sampling = SurfaceSampling {
         spacing: spacing_m,
         max_per_shape: 2000,
@@ -84,13 +92,13 @@ pub fn hand_samples(robot: &Robot, spacing_m: f64) -> Vec<(LinkId, Point3<f64>)>
         for shape in &link.collision {
             shape.sample_surface(&sampling, &mut pts, &mut normals);
         }
-        for p in pts {
+        for (p, n) in pts.into_iter().zip(normals) {
             let buried = link
                 .collision
                 .iter()
                 .any(|s| s.depth_of(&p) > crate::geometry::shape::BURIED_DEPTH);
             if !buried {
-                out.push((LinkId(i as u32), p));
+                out.push((LinkId(i as u32), p, n));
             }
         }
     }

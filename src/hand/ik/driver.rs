@@ -73,6 +73,9 @@ pub struct Stats {
     pub not_converged: Vec<usize>,
     /// Output frames whose solution was not finite (the warm start was kept).
     pub non_finite: Vec<usize>,
+    /// Output frames solved again from the rigid transfer of the recorded hand, which ended
+    /// at less than half the carried-along start's objective (see [`run`]).
+    pub restarted: Vec<usize>,
     /// Mean iterations per frame.
     pub mean_iterations: f64,
     /// Most iterations in one frame.
@@ -98,7 +101,12 @@ pub struct Stats {
 /// `t* = warp.retime.timewarp.source_frame(t)`, the object pose of the warped object at
 /// `t`, and the warm start of [`Params::warm_start`] from the previous frame's solution (the
 /// first frame starts from `init`, e.g. the baseline hand; with the rigid warm start every
-/// frame starts from `init` at that frame). A frame whose `t*` has no
+/// frame starts from `init` at that frame). A frame the carried-along start leaves short of
+/// the stop rule is solved again from `init` at that frame, and takes that solution when it
+/// ends at less than half the objective ([`Stats::restarted`]): where the carried hand is
+/// caught on the wrong side of a rim or a thin wall, the recording's own grasp is not, and
+/// where it is merely near a barrier the two end alike and the carried one is kept, so the
+/// hand does not jump between them. A frame whose `t*` has no
 /// correspondences (a gap inside the segment) has nothing to fit: its hand is the previous
 /// solution carried along by the object's motion. Frames outside the contact segment are
 /// copied from `init` (the rigid shift of stage 1). `demo` must be in robot joint order
@@ -152,6 +160,7 @@ pub fn run(
     let mut solver = IkSolver::new(robot, barriers, object, params.clone());
     let mut wrist = init.wrists[c0];
     let mut q = init.q(c0).to_vec();
+    let mut q2 = q.clone();
     let mut prev_object = path.pose(c0);
     let mut stats = Stats {
         solver: params.solver,
@@ -175,7 +184,22 @@ pub fn run(
             Some(d) if d[s - c0] > 0.0 => threshold_m.min(d[s - c0]),
             _ => threshold_m,
         };
-        let r = solver.solve_within(&object_pose, contacts, &mut wrist, &mut q, target_m);
+        let mut r = solver.solve_within(&object_pose, contacts, &mut wrist, &mut q, target_m);
+        // A frame the carried-along start leaves far from the stop rule (fingers caught on
+        // the wrong side of a rim or a thin wall) tries again from the recording's own grasp
+        // at that frame, and takes it when it ends at less than half the objective: a jump
+        // between the two is worth it only where the carried hand is lost.
+        if !r.converged && params.warm_start != WarmStart::Rigid && !contacts.is_empty() {
+            let mut w2 = init.wrists[t];
+            q2.copy_from_slice(init.q(t));
+            let r2 = solver.solve_within(&object_pose, contacts, &mut w2, &mut q2, target_m);
+            if r2.objective_end < 0.5 * r.objective_end && !r2.non_finite {
+                wrist = w2;
+                q.copy_from_slice(&q2);
+                r = r2;
+                stats.restarted.push(t);
+            }
+        }
         if r.non_finite {
             stats.non_finite.push(t);
         }
