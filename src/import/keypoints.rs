@@ -905,6 +905,11 @@ const PAD_DEPTH_M: f64 = 0.005;
 /// [m] (see [`Tracker::frame`]).
 const RELEASE_CLEARANCE_M: f64 = 0.01;
 
+/// How far a hand without contacts keeps from the object [m]: farther than the physics
+/// replay's contact skin (3 mm), so a hand that approaches or has let go does not push the
+/// object.
+const OFF_CLEARANCE_M: f64 = 0.005;
+
 /// Off the object and near it, how far a target may be from where its point was on the
 /// previous frame [m] (see [`Tracker::within_reach`]).
 const RELEASE_STEP_M: f64 = 0.005;
@@ -960,6 +965,9 @@ struct Tracker<'a> {
     poses: Vec<Isometry3<f64>>,
     wrist: Isometry3<f64>,
     q: Vec<f64>,
+    /// The solver of frames without contacts: the hand keeps [`OFF_CLEARANCE_M`] from the
+    /// object.
+    off_solver: IkSolver<'a>,
     /// The keypoint fit without the object ([`Tracker::frame`]), and its state.
     free_solver: IkSolver<'a>,
     free_wrist: Isometry3<f64>,
@@ -1063,7 +1071,7 @@ impl Tracker<'_> {
             // Off the object the hand may jump to its free fit only while it is clear of the
             // object: a hand letting go of a grasp leaves it continuously, not through it.
             let objective = if self.clearance(pose) > RELEASE_CLEARANCE_M {
-                self.best_of(pose, &targets)
+                self.best_of(pose, &targets, true)
             } else {
                 let near = self.within_reach(pose, &targets);
                 self.carry_on(pose, &near)
@@ -1080,7 +1088,7 @@ impl Tracker<'_> {
                 .iter()
                 .filter(|c| !contacts.iter().any(|x| x.link == c.link)),
         );
-        let objective = self.best_of(pose, &all);
+        let objective = self.best_of(pose, &all, false);
         self.solved(contacts, all, objective)
     }
 
@@ -1099,10 +1107,11 @@ impl Tracker<'_> {
         }
     }
 
-    /// Solves `targets` with the object from the previous frame's solution.
+    /// Solves `targets` from the previous frame's solution, [`OFF_CLEARANCE_M`] off the
+    /// object.
     fn carry_on(&mut self, pose: &Isometry3<f64>, targets: &[ResolvedContact]) -> f64 {
         let end = self
-            .solver
+            .off_solver
             .solve(pose, targets, &mut self.wrist, &mut self.q)
             .objective_end;
         self.robot
@@ -1153,12 +1162,17 @@ impl Tracker<'_> {
     /// this frame's free fit, and keeps the one that ends lower: the previous solution
     /// carries a grasp through frames where the recording's keypoints pass through the
     /// object, the free fit gets a hand caught on the object's wrong side back.
-    fn best_of(&mut self, pose: &Isometry3<f64>, targets: &[ResolvedContact]) -> f64 {
+    /// `off`: the frame has no contacts, and the hand keeps [`OFF_CLEARANCE_M`] from the
+    /// object.
+    fn best_of(&mut self, pose: &Isometry3<f64>, targets: &[ResolvedContact], off: bool) -> f64 {
+        let solver = if off {
+            &mut self.off_solver
+        } else {
+            &mut self.solver
+        };
         let (mut w2, mut q2) = (self.free_wrist, self.free_q.clone());
-        let from_free = self.solver.solve(pose, targets, &mut w2, &mut q2);
-        let from_prev = self
-            .solver
-            .solve(pose, targets, &mut self.wrist, &mut self.q);
+        let from_free = solver.solve(pose, targets, &mut w2, &mut q2);
+        let from_prev = solver.solve(pose, targets, &mut self.wrist, &mut self.q);
         let mut end = from_prev.objective_end;
         if from_free.objective_end < end {
             self.wrist = w2;
@@ -1168,6 +1182,27 @@ impl Tracker<'_> {
         self.robot
             .forward_kinematics(&self.wrist, &self.q, &mut self.poses);
         end
+    }
+}
+
+/// The backward pass (see the module docs, step 5): a grasp the forward pass reaches only
+/// some frames into a touch (a finger caught on a rim while the recording's passes through
+/// it) is carried back to the frames before, wherever it ends lower.
+fn backward(solver: &mut IkSolver<'_>, object: &[Isometry3<f64>], solved: &mut [Solved]) {
+    for t in (0..solved.len().saturating_sub(1)).rev() {
+        if solved[t].contacts.is_empty() || solved[t + 1].contacts.is_empty() {
+            continue;
+        }
+        let mut wrist = object[t] * object[t + 1].inverse() * solved[t + 1].wrist;
+        let mut q = solved[t + 1].q.clone();
+        let end = solver
+            .solve(&object[t], &solved[t].targets, &mut wrist, &mut q)
+            .objective_end;
+        if end < solved[t].objective {
+            solved[t].wrist = wrist;
+            solved[t].q = q;
+            solved[t].objective = end;
+        }
     }
 }
 
@@ -1212,6 +1247,16 @@ pub fn retarget(
         solver: IkSolver::new(robot, support, Some(&object.sdf), ik.clone()),
         samples: crate::synth::contacts::hand_surface(robot, 0.004),
         poses,
+        off_solver: IkSolver::new(
+            robot,
+            support,
+            Some(&object.sdf),
+            IkParams {
+                // The hinge starts at half the tolerance: a clearance.
+                penetration_tolerance_mm: -2.0 * OFF_CLEARANCE_M * 1e3,
+                ..ik.clone()
+            },
+        ),
         free_solver: IkSolver::new(robot, support, None, ik.clone()),
         free_wrist: wrist,
         free_q: q.clone(),
@@ -1244,25 +1289,7 @@ pub fn retarget(
             params.contact_weight,
         ));
     }
-    // Backward: a grasp the forward pass reaches only some frames into a touch (a finger
-    // caught on a rim while the recording's passes through it) is carried back to the
-    // frames before, wherever it ends lower.
-    for t in (0..n.saturating_sub(1)).rev() {
-        if solved[t].contacts.is_empty() || solved[t + 1].contacts.is_empty() {
-            continue;
-        }
-        let mut wrist = rec.object[t] * rec.object[t + 1].inverse() * solved[t + 1].wrist;
-        let mut q = solved[t + 1].q.clone();
-        let end = tracker
-            .solver
-            .solve(&rec.object[t], &solved[t].targets, &mut wrist, &mut q)
-            .objective_end;
-        if end < solved[t].objective {
-            solved[t].wrist = wrist;
-            solved[t].q = q;
-            solved[t].objective = end;
-        }
-    }
+    backward(&mut tracker.solver, &rec.object, &mut solved);
     let mut poses = robot.new_link_poses();
     for (t, frame) in solved.into_iter().enumerate() {
         robot.forward_kinematics(&frame.wrist, &frame.q, &mut poses);

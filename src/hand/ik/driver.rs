@@ -73,8 +73,8 @@ pub struct Stats {
     pub not_converged: Vec<usize>,
     /// Output frames whose solution was not finite (the warm start was kept).
     pub non_finite: Vec<usize>,
-    /// Output frames solved again from the rigid transfer of the recorded hand, which ended
-    /// at less than half the carried-along start's objective (see [`run`]).
+    /// Output frames solved again from the rigid transfer of the recorded hand, which met
+    /// the stop rule and ended lower where the carried-along start did not (see [`run`]).
     pub restarted: Vec<usize>,
     /// Mean iterations per frame.
     pub mean_iterations: f64,
@@ -103,10 +103,10 @@ pub struct Stats {
 /// first frame starts from `init`, e.g. the baseline hand; with the rigid warm start every
 /// frame starts from `init` at that frame). A frame the carried-along start leaves short of
 /// the stop rule is solved again from `init` at that frame, and takes that solution when it
-/// ends at less than half the objective ([`Stats::restarted`]): where the carried hand is
-/// caught on the wrong side of a rim or a thin wall, the recording's own grasp is not, and
-/// where it is merely near a barrier the two end alike and the carried one is kept, so the
-/// hand does not jump between them. A frame whose `t*` has no
+/// meets the stop rule and ends lower ([`Stats::restarted`]): where the carried hand is caught on the wrong
+/// side of a rim or a thin wall, the recording's own grasp is not; where neither start gets
+/// there (a hand held off by a barrier) the carried one is kept, so the hand does not jump
+/// between them. A frame whose `t*` has no
 /// correspondences (a gap inside the segment) has nothing to fit: its hand is the previous
 /// solution carried along by the object's motion. Frames outside the contact segment are
 /// copied from `init` (the rigid shift of stage 1). `demo` must be in robot joint order
@@ -185,15 +185,16 @@ pub fn run(
             _ => threshold_m,
         };
         let mut r = solver.solve_within(&object_pose, contacts, &mut wrist, &mut q, target_m);
-        // A frame the carried-along start leaves far from the stop rule (fingers caught on
+        // A frame the carried-along start cannot bring to the stop rule (fingers caught on
         // the wrong side of a rim or a thin wall) tries again from the recording's own grasp
-        // at that frame, and takes it when it ends at less than half the objective: a jump
-        // between the two is worth it only where the carried hand is lost.
+        // at that frame, and takes it only when that meets the stop rule and ends lower
+        // (the objective counts the barriers, the stop rule does not): where neither start
+        // gets there (a hand held off by a barrier), the carried hand stays and does not jump.
         if !r.converged && params.warm_start != WarmStart::Rigid && !contacts.is_empty() {
             let mut w2 = init.wrists[t];
             q2.copy_from_slice(init.q(t));
             let r2 = solver.solve_within(&object_pose, contacts, &mut w2, &mut q2, target_m);
-            if r2.objective_end < 0.5 * r.objective_end && !r2.non_finite {
+            if r2.converged && r2.objective_end < r.objective_end && !r2.non_finite {
                 wrist = w2;
                 q.copy_from_slice(&q2);
                 r = r2;
