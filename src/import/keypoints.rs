@@ -56,7 +56,12 @@
 //! 5. *Backward.* From the last frame back, each touching frame is solved again from the
 //!    next frame's solution and keeps it where it ends lower: a grasp the forward pass
 //!    reaches only some frames into a touch (a finger caught on a rim while the
-//!    recording's passes through it) is carried back to where the touch began.
+//!    recording's passes through it) is carried back to where the touch began. Then the
+//!    approach: the frames before each touch are solved from the next frame's hand, their
+//!    targets at most 5 mm a frame away and the hand 5 mm off the object, until it is 10 mm
+//!    clear, so the hand closes onto the grasp instead of jumping into it at the first
+//!    touching frame (a hand larger than the person's would sweep through the object
+//!    there).
 //!
 //! The keypoints are smoothed first (Savitzky-Golay, [`Params::smoothing_window`] frames,
 //! quadratic); the object's path is kept as recorded. [`Residuals`] says per frame how far
@@ -955,6 +960,8 @@ struct Solved {
     /// Everything the frame was solved for, and the objective it ended at.
     targets: Vec<ResolvedContact>,
     objective: f64,
+    /// Solved backward from a grasp ([`Tracker::approach`]).
+    approaching: bool,
 }
 
 /// The state carried from frame to frame by [`retarget`].
@@ -1104,6 +1111,7 @@ impl Tracker<'_> {
             contacts,
             targets,
             objective,
+            approaching: false,
         }
     }
 
@@ -1146,6 +1154,40 @@ impl Tracker<'_> {
                 }
             })
             .collect()
+    }
+
+    /// The approach to each grasp, solved backward from it (see the module docs, step 5):
+    /// every frame without contacts before a touching one is solved from the next frame's
+    /// hand, its targets within [`RELEASE_STEP_M`] of where that hand's points are and
+    /// [`OFF_CLEARANCE_M`] off the object, until the hand is [`RELEASE_CLEARANCE_M`] clear of
+    /// it; farther back the forward pass's hand stays. The hand then closes onto the grasp
+    /// at a hand's pace instead of jumping into it on the first touching frame (a robot hand
+    /// larger than the person's, its fingers scaled out on the approach, would sweep through
+    /// the object there).
+    fn approach(&mut self, object: &[Isometry3<f64>], solved: &mut [Solved]) {
+        for t in (0..solved.len().saturating_sub(1)).rev() {
+            if !solved[t].contacts.is_empty() {
+                continue;
+            }
+            let next = &solved[t + 1];
+            let from_grasp = !next.contacts.is_empty() || next.approaching;
+            if !from_grasp {
+                continue;
+            }
+            self.wrist = object[t] * object[t + 1].inverse() * next.wrist;
+            self.q.clone_from(&next.q);
+            self.robot
+                .forward_kinematics(&self.wrist, &self.q, &mut self.prev_poses);
+            if self.clearance(&object[t]) > RELEASE_CLEARANCE_M {
+                continue;
+            }
+            let near = self.within_reach(&object[t], &solved[t].targets);
+            let objective = self.carry_on(&object[t], &near);
+            solved[t].wrist = self.wrist;
+            solved[t].q.clone_from(&self.q);
+            solved[t].objective = objective;
+            solved[t].approaching = true;
+        }
     }
 
     /// How far the previous frame's hand (its link poses, `self.poses` before this frame's
@@ -1290,6 +1332,7 @@ pub fn retarget(
         ));
     }
     backward(&mut tracker.solver, &rec.object, &mut solved);
+    tracker.approach(&rec.object, &mut solved);
     let mut poses = robot.new_link_poses();
     for (t, frame) in solved.into_iter().enumerate() {
         robot.forward_kinematics(&frame.wrist, &frame.q, &mut poses);
