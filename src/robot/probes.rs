@@ -14,9 +14,9 @@
 //!   flat face pressed onto a convex object of curvature radius `R` hides at most `s²/8R`
 //!   of depth between points (0.3 mm for `R` = 1 cm), a cylinder of radius `r` at most
 //!   `r(1 − cos(s/2r))` (0.4 mm for an 8 mm finger). And balls inside: the interior on a
-//!   3 mm grid, each point with its distance to the surface as radius ([`inner_balls`]), so
-//!   a wall thinner than the surface points' spacing (a 2 mm box wall) cannot pass through
-//!   the shape between them unseen.
+//!   grid (3 mm, or a third of the thinnest extent), each point with its distance to the
+//!   surface as radius ([`inner_balls`]), so a wall thinner than the surface points' spacing
+//!   (a 2 mm box wall) cannot pass through the shape's core between them unseen.
 //!
 //! A link's probes are the leaves of a bounding-sphere tree (a median split along the
 //! longest axis of each node's box, at most [`LEAF_SIZE`] probes per leaf), so a query asks
@@ -35,8 +35,8 @@ pub const AXIS_SPACING_M: f64 = 0.002;
 pub const SURFACE_SPACING_M: f64 = 0.005;
 /// Spacing of the inner balls of boxes, cylinders and meshes [m] ([`inner_balls`]).
 pub const INNER_SPACING_M: f64 = 0.003;
-/// Most inner balls of one shape.
-const MAX_INNER_PROBES: usize = 2000;
+/// Most inner grid points of one shape.
+const MAX_INNER_PROBES: usize = 300;
 /// Smallest inner ball [m].
 const MIN_INNER_RADIUS_M: f64 = 0.0015;
 /// Most probes in a leaf of a link's probe tree.
@@ -130,9 +130,10 @@ impl Probes {
 }
 
 /// Balls inside a box, cylinder or mesh: its interior sampled on a grid of
-/// [`INNER_SPACING_M`] (coarser for a large shape, at most [`MAX_INNER_PROBES`] points), each
-/// point a ball as large as its distance to the shape's surface (those under
-/// [`MIN_INNER_RADIUS_M`] left out). Surface points alone let a wall thinner than their
+/// [`INNER_SPACING_M`] or a third of its thinnest extent, whichever is larger (coarser still
+/// for a large shape: at most [`MAX_INNER_PROBES`] points), each point a ball as large as
+/// its distance to the shape's surface (those under half the spacing, or
+/// [`MIN_INNER_RADIUS_M`], left out: the surface points stand for them). Surface points alone let a wall thinner than their
 /// spacing cut through the shape between them unseen; a wall through the interior comes
 /// within reach of some ball.
 fn inner_balls(shape: &CollisionShape, probes: &mut Vec<Probe>) {
@@ -148,20 +149,22 @@ fn inner_balls(shape: &CollisionShape, probes: &mut Vec<Probe>) {
     if !size.iter().all(|s| s.is_finite()) {
         return;
     }
-    let cells = |h: f64| size.map(|s| (s / h).floor() as usize + 1);
-    let mut h = INNER_SPACING_M;
+    // An odd count along each axis, so the grid has the shape's middle planes; spacing a
+    // third of the thinnest extent at least, coarser until the count is bounded.
+    let cells = |h: f64| size.map(|s| 2 * (s / (2.0 * h)).floor() as usize + 1);
+    let mut h = INNER_SPACING_M.max(size.min() / 3.0);
     while cells(h).iter().product::<usize>() > MAX_INNER_PROBES {
         h *= 1.25;
     }
     let n = cells(h);
-    // The grid centred in the box, so a thin shape gets its middle sampled.
+    let min_radius = MIN_INNER_RADIUS_M.max(h / 2.0);
     let start = lo + (size - (n - Vector3::repeat(1)).cast::<f64>() * h) / 2.0;
     for i in 0..n.x {
         for j in 0..n.y {
             for k in 0..n.z {
                 let point = Point3::from(start + Vector3::new(i as f64, j as f64, k as f64) * h);
                 let radius = shape.depth_of(&point);
-                if radius >= MIN_INNER_RADIUS_M {
+                if radius >= min_radius {
                     probes.push(Probe { point, radius });
                 }
             }

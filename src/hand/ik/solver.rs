@@ -194,6 +194,23 @@ impl<'a> IkSolver<'a> {
         self.solve_within(object_pose, contacts, wrist, q, threshold_m)
     }
 
+    /// [`IkSolver::solve_within`] with at most `cap` iterations (a quick second try).
+    pub fn solve_capped(
+        &mut self,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &mut Isometry3<f64>,
+        q: &mut [f64],
+        threshold_m: f64,
+        cap: usize,
+    ) -> FrameResult {
+        let saved = self.params.max_iterations;
+        self.params.max_iterations = cap.max(1);
+        let r = self.solve_within(object_pose, contacts, wrist, q, threshold_m);
+        self.params.max_iterations = saved;
+        r
+    }
+
     /// [`IkSolver::solve`] with the stop rule's contact threshold `threshold_m` [m] for this
     /// frame instead of [`Params::threshold_mm`] (see [`run`](super::run): never above the recording's
     /// own fit).
