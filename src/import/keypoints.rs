@@ -432,8 +432,10 @@ struct Resolved {
     bones: Vec<(usize, usize, f64, LinkId)>,
 }
 
-/// Parameters of [`retarget`].
+/// Parameters of [`retarget`] (`import --retarget FILE`: a JSON object of any of these
+/// fields; the others keep their defaults).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Params {
     /// A bone touches the object when its capsule is within this of the surface [mm].
     pub touch_mm: f64,
@@ -476,6 +478,54 @@ impl Default for Params {
             contact_weight: 3,
             support_margin_m: 0.005,
         }
+    }
+}
+
+impl Params {
+    /// Every field within its range; an error names `path`, the field and what it expects.
+    pub fn check(&self, path: &Path) -> Result<()> {
+        let range = |field: &str, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::invalid(
+                    path,
+                    field,
+                    format!("must be a number in [{lo}, {hi}], got {v}"),
+                ))
+            }
+        };
+        range("touch_mm", self.touch_mm, 0.0, 50.0)?;
+        range("release_mm", self.release_mm, self.touch_mm, 100.0)?;
+        range("regrasp_mm", self.regrasp_mm, 1.0, 1000.0)?;
+        range("support_margin_m", self.support_margin_m, 0.0, 0.1)?;
+        let count = |field: &str, v: usize, lo: usize, hi: usize| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::invalid(
+                    path,
+                    field,
+                    format!("must be a whole number in [{lo}, {hi}], got {v}"),
+                ))
+            }
+        };
+        count("regrasp_frames", self.regrasp_frames, 1, 10_000)?;
+        count("min_touch_frames", self.min_touch_frames, 0, 10_000)?;
+        count("smoothing_window", self.smoothing_window, 1, 1001)?;
+        if self.smoothing_window.is_multiple_of(2) {
+            return Err(Error::invalid(
+                path,
+                "smoothing_window",
+                format!(
+                    "must be odd (1 turns the smoothing off), got {}",
+                    self.smoothing_window
+                ),
+            ));
+        }
+        count("scale_blend_frames", self.scale_blend_frames, 0, 10_000)?;
+        count("contact_weight", self.contact_weight, 1, 100)?;
+        Ok(())
     }
 }
 

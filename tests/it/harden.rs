@@ -1155,3 +1155,48 @@ fn recordings_whose_clock_runs_backwards_are_refused_and_inside_out_meshes_turne
     let expected = with_correspondences(&stderr(&o));
     assert!(expected > 0 && found == expected, "{found} vs {expected}");
 }
+
+/// Retargeting parameters come from a file a user writes: a misspelled field is refused with
+/// the nearest one, a value out of range with the field and its range, and nothing is
+/// written.
+#[test]
+fn retargeting_parameters_are_read_strictly() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out/rec.demo.json");
+    let run = |json: &str| {
+        let params = dir.path().join("retarget.json");
+        std::fs::write(&params, json).unwrap();
+        let o = dexwarp(&[
+            "import",
+            "--keypoints",
+            s(&dir.path().join("frames.csv")),
+            "--fps",
+            "30",
+            "--robot",
+            s(&crate::fixtures::repo("robots/human_hand.urdf")),
+            "--mesh",
+            s(&crate::fixtures::repo("scenes/objects/small_box.obj")),
+            "--mass",
+            "0.1",
+            "--out",
+            s(&out),
+            "--retarget",
+            s(&params),
+        ]);
+        (o.status.success(), stderr(&o))
+    };
+    let (ok, err) = run(r#"{"regrasp_m": 20}"#);
+    assert!(!ok && err.contains("retarget.json"), "{err}");
+    assert!(err.contains("did you mean `regrasp_mm`"), "{err}");
+    let (ok, err) = run(r#"{"touch_mm": 6, "release_mm": 5}"#);
+    assert!(
+        !ok && err.contains("release_mm") && err.contains("[6, 100]"),
+        "{err}"
+    );
+    let (ok, err) = run(r#"{"smoothing_window": 8}"#);
+    assert!(
+        !ok && err.contains("smoothing_window") && err.contains("odd"),
+        "{err}"
+    );
+    assert!(!out.exists() && !dir.path().join("out").exists());
+}

@@ -36,6 +36,10 @@ pub struct ImportArgs {
     /// A scene for the demonstration instead of the table inferred from the recording.
     #[arg(long, value_name = "FILE", requires = "keypoints")]
     scene: Option<PathBuf>,
+    /// Retargeting parameters (JSON: touch and release distances, regrasps, smoothing;
+    /// docs/FORMATS.md); absent fields keep their defaults.
+    #[arg(long, value_name = "FILE", requires = "keypoints")]
+    retarget: Option<PathBuf>,
     /// Keep the retargeted hand as it is inside the contact segment: no contact refinement
     /// (the warp's contact IK on the recorded correspondences).
     #[arg(long, requires = "keypoints")]
@@ -89,6 +93,7 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         handedness,
         keypoint_map,
         scene,
+        retarget,
         no_refine,
         hull_fallback,
         contacts,
@@ -124,7 +129,15 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
             hull_fallback,
             scene,
             refine: !no_refine,
-            params: Default::default(),
+            params: match &retarget {
+                Some(p) => {
+                    let params: dexwarp::import::keypoints::Params =
+                        dexwarp::model::json::read_json(p, &limits)?;
+                    params.check(p)?;
+                    params
+                }
+                None => Default::default(),
+            },
         };
         let (import, hull) =
             dexwarp::import::import_keypoints(&frames, &options, &target, &limits)?;
