@@ -474,6 +474,24 @@ pub fn nearest_support(
     best
 }
 
+/// Whether the object at `pose` rests on a support: within `gap` [m] of one. A bounding-box
+/// test first, so a carried object costs no distance query.
+pub fn on_support(
+    object: &ObjectShape,
+    pose: &Isometry3<f64>,
+    supports: &[(String, CollisionShape)],
+    gap: f64,
+) -> bool {
+    let pose = to_pose(pose);
+    let aabb = object.compound.compute_aabb(&pose).loosened(gap);
+    supports.iter().any(|(_, cs)| {
+        let sp = to_pose(&cs.shape_pose);
+        aabb.intersects(&cs.shape.compute_aabb(&sp))
+            && query::distance(&pose, object.compound.as_ref(), &sp, cs.shape.as_ref())
+                .is_ok_and(|d| d.distance <= gap)
+    })
+}
+
 /// The grip over the contact segment's samples `segment` (one per frame), for an object of
 /// weight `weight_n` [N].
 pub fn grip(segment: &[GripSample], weight_n: f64) -> Grip {

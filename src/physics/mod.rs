@@ -949,8 +949,12 @@ fn check_replay(
 
     let t_stab = Instant::now();
     let off_support = |f: usize| {
-        checks::nearest_support(object, &demo.frames[f].object, &named(supports))
-            .is_none_or(|(_, gap)| gap > params.support_gap_m)
+        !checks::on_support(
+            object,
+            &demo.frames[f].object,
+            supports,
+            params.support_gap_m,
+        )
     };
     let stability = segment.map(|s| stability(robot, demo, object, s, off_support, params));
     let stability_s = t_stab.elapsed().as_secs_f64();
