@@ -148,12 +148,12 @@ impl WarpResult {
 /// overrides the config's IK threshold; hand "contact" or "baseline"; solver "lm" or
 /// "adam"; physics=False skips the replay (the report's physics is None); objective
 /// "non_penetrating" or "paper", penetration_weight and warm_start ("follow_object",
-/// "previous" or "rigid") override the config; ensemble (K replays, 1 for a single one) and
-/// ensemble_seed set the ensemble verdict.
+/// "previous" or "rigid") override the config; ensemble (K replays, 1 for a single one),
+/// ensemble_seed and ensemble_max (most replays while uncertain) set the ensemble verdict.
 #[pyfunction]
 #[pyo3(signature = (
     demo, config, *, threshold_mm=None, hand="contact", solver="lm", physics=true,
-    objective=None, penetration_weight=None, warm_start=None, ensemble=None, ensemble_seed=None
+    objective=None, penetration_weight=None, warm_start=None, ensemble=None, ensemble_seed=None, ensemble_max=None
 ))]
 pub fn warp(
     py: Python<'_>,
@@ -168,6 +168,7 @@ pub fn warp(
     warm_start: Option<&str>,
     ensemble: Option<usize>,
     ensemble_seed: Option<u64>,
+    ensemble_max: Option<usize>,
 ) -> PyResult<WarpResult> {
     let threshold_mm = threshold_mm
         .map(|t| positive_mm("threshold_mm", t))
@@ -193,6 +194,7 @@ pub fn warp(
         .physics(physics.then(|| PhysicsOptions {
             ensemble,
             ensemble_seed,
+            ensemble_max,
             ..PhysicsOptions::default()
         }))
         .limits(Limits::default());
@@ -209,10 +211,10 @@ pub fn warp(
 
 /// Replays `demo` in physics and reports on it (`dexwarp validate`): the report as a dict.
 /// The scene is the demonstration's own unless `scene` is given; `barriers` (scene item
-/// names) default to the demonstration's; `ensemble` (K replays, 1 for a single one) and
-/// `ensemble_seed` set the ensemble verdict.
+/// names) default to the demonstration's; `ensemble` (K replays, 1 for a single one),
+/// `ensemble_seed` and `ensemble_max` (most replays while uncertain) set the ensemble verdict.
 #[pyfunction]
-#[pyo3(signature = (demo, *, scene=None, barriers=None, ensemble=None, ensemble_seed=None))]
+#[pyo3(signature = (demo, *, scene=None, barriers=None, ensemble=None, ensemble_seed=None, ensemble_max=None))]
 pub fn validate<'py>(
     py: Python<'py>,
     demo: &Demo,
@@ -220,11 +222,13 @@ pub fn validate<'py>(
     barriers: Option<Vec<String>>,
     ensemble: Option<usize>,
     ensemble_seed: Option<u64>,
+    ensemble_max: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let demo = demo.inner.clone();
     let params = PhysicsOptions {
         ensemble,
         ensemble_seed,
+        ensemble_max,
         ..PhysicsOptions::default()
     }
     .apply(dexwarp::physics::Params::default());
@@ -249,7 +253,7 @@ pub fn validate<'py>(
 /// (`stats["baseline"]`: its yield and the paired counts); `margin` also measures the
 /// robustness margin of every sample that passes physics (`stats["robust"]`).
 #[pyfunction]
-#[pyo3(signature = (demo, variations, *, count, out, seed=0, jobs=0, shard=None, force=false, compare_baseline=false, margin=false, ensemble=None, ensemble_seed=None))]
+#[pyo3(signature = (demo, variations, *, count, out, seed=0, jobs=0, shard=None, force=false, compare_baseline=false, margin=false, ensemble=None, ensemble_seed=None, ensemble_max=None))]
 pub fn augment<'py>(
     py: Python<'py>,
     demo: PathBuf,
@@ -264,6 +268,7 @@ pub fn augment<'py>(
     margin: bool,
     ensemble: Option<usize>,
     ensemble_seed: Option<u64>,
+    ensemble_max: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let shard = shard
         .map(|s| {
@@ -285,6 +290,7 @@ pub fn augment<'py>(
         physics: PhysicsOptions {
             ensemble,
             ensemble_seed,
+            ensemble_max,
             ..PhysicsOptions::default()
         },
         limits: Limits::default(),

@@ -129,7 +129,7 @@ pub(crate) fn histogram(title: &str, x_label: &str, counted: &str, values: &[f64
 /// The run's ensemble verdicts in one paragraph.
 fn ensemble_line(e: &super::stats::EnsembleStats) -> String {
     format!(
-        "<p>ensemble verdicts: {} samples, median pass fraction {}; {} uncertain (the 95 % interval contains the keep threshold), {} of them kept; {} of {} replays run</p>\n",
+        "<p>ensemble verdicts: {} samples, median pass fraction {}; {} uncertain (the 95 % interval contains the keep threshold), {} of them kept; {} replays run for the {} asked (the early stop saves some, an uncertain decision takes more)</p>\n",
         e.samples,
         num(e.pass_fraction.median, 2),
         e.uncertain,

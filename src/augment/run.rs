@@ -545,13 +545,16 @@ fn sample_options(o: &AugmentOptions, hand: HandMethod) -> Options {
 
 /// Whether a finished sample's physics was judged by the ensemble a run now asks for
 /// (`want`: the spec's with the options on top): the same members and, with more than one,
-/// the same seed.
+/// the same seed and most members (a report from before the most members counts as K).
 fn same_ensemble(
     p: &crate::model::report::PhysicsSummary,
     want: &crate::physics::EnsembleParams,
 ) -> bool {
     let (k, _) = p.ensemble_members();
-    k == want.members && (k == 1 || p.ensemble_seed() == Some(want.seed))
+    k == want.members
+        && (k == 1
+            || (p.ensemble_seed() == Some(want.seed)
+                && p.ensemble_max().unwrap_or(k) == want.most_members()))
 }
 
 /// A report carrying the error of a hand run (`hand`), also written to `stage/file`.

@@ -284,6 +284,12 @@ impl PhysicsSummary {
         ))
     }
 
+    /// The most members the ensemble would replay while uncertain; `None` for a single
+    /// replay or a report from before the extension.
+    pub fn ensemble_max(&self) -> Option<usize> {
+        Some(self.ensemble()?.get("max_members")?.as_u64()? as usize)
+    }
+
     /// The seed of the ensemble's draws; `None` for a single replay.
     pub fn ensemble_seed(&self) -> Option<u64> {
         self.ensemble()?.get("seed")?.as_u64()

@@ -369,28 +369,38 @@ fn run_ensemble(
         passed: nominal.passed(),
         reason: nominal.reasons.first().cloned(),
     }];
-    let stop = |members: &[ensemble::Member]| {
+    let stop = |members: &[ensemble::Member], target: usize| {
         let passed = members.iter().filter(|m| m.passed).count();
-        members.len() >= ep.members
+        members.len() >= target
             || (ep.early_stop
-                && ensemble::can_stop(passed, members.len(), ep.members, ep.keep_threshold))
+                && ensemble::can_stop(passed, members.len(), target, ep.keep_threshold))
     };
-    // Every member but the last in one batch, then the last if the early stop does not hold:
-    // a trajectory that passes every replay stops after K − 1 members.
-    'batches: while !stop(&members) {
-        let next = members.len();
-        let end = if next == 1 {
-            (ep.members - 1).max(2).min(ep.members)
-        } else {
-            ep.members
-        };
-        let indices: Vec<usize> = (next..end).collect();
-        for m in replays.run(&indices)? {
-            members.push(m);
-            if stop(&members) {
-                break 'batches;
+    // The first K: every member but the last in one batch, then the last if the early stop
+    // does not hold (a trajectory that passes every replay stops after K − 1 members). While
+    // the decision is uncertain, K more at a time in one batch, up to the most members.
+    let mut target = ep.members;
+    loop {
+        'batches: while !stop(&members, target) {
+            let next = members.len();
+            let end = if next == 1 {
+                (target - 1).max(2).min(target)
+            } else {
+                target
+            };
+            let indices: Vec<usize> = (next..end).collect();
+            for m in replays.run(&indices)? {
+                members.push(m);
+                if stop(&members, target) {
+                    break 'batches;
+                }
             }
         }
+        let passed = members.iter().filter(|m| m.passed).count();
+        let uncertain = ensemble::decide(passed, members.len(), ep.keep_threshold).1;
+        if !uncertain || target >= ep.most_members() {
+            break;
+        }
+        target = (target + ep.members).min(ep.most_members());
     }
     Ok(Ensemble::of(ep, members, nominal.reasons.clone()))
 }

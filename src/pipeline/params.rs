@@ -27,6 +27,9 @@ pub struct PhysicsOptions {
     pub ensemble: Option<usize>,
     /// Seed of the ensemble's draws; `None` keeps the config's (0 by default).
     pub ensemble_seed: Option<u64>,
+    /// Most members while the decision is uncertain; `None` keeps the config's (32 by
+    /// default).
+    pub ensemble_max: Option<usize>,
     /// The object's collision shape; `None` keeps the config's (convex parts by default).
     pub object_collider: Option<physics::ObjectCollider>,
 }
@@ -43,6 +46,9 @@ impl PhysicsOptions {
         }
         if let Some(seed) = self.ensemble_seed {
             base.ensemble.seed = seed;
+        }
+        if let Some(n) = self.ensemble_max {
+            base.ensemble.max_members = n;
         }
         if let Some(c) = self.object_collider {
             base.decomposition.collider = c;

@@ -1080,6 +1080,7 @@ fn ensemble_at_the_slip_limit_splits_and_its_interval_reflects_k() {
             let params = Params {
                 ensemble: dexwarp::physics::EnsembleParams {
                     members: k,
+                    max_members: k,
                     early_stop: false,
                     ..quiet.clone()
                 },
@@ -1113,5 +1114,33 @@ fn ensemble_at_the_slip_limit_splits_and_its_interval_reflects_k() {
     assert!(
         width(fractions[1].2) < width(fractions[0].2),
         "intervals {fractions:?}"
+    );
+    // The default rule: 8 replays, 8 more at a time while uncertain, at most 24 here.
+    let params = Params {
+        ensemble: dexwarp::physics::EnsembleParams {
+            max_members: 24,
+            ..quiet.clone()
+        },
+        ..Params::default()
+    };
+    let e = shifted(lo, &params).ensemble.unwrap();
+    let first = &e.member[..e.replayed.min(8)];
+    let passed = first.iter().filter(|m| m.passed).count();
+    let undecided = dexwarp::physics::ensemble::decide(passed, first.len(), 0.5).1;
+    println!(
+        "K = 8 up to 24: {} of {} pass ({} of the first {}), uncertain {}",
+        e.passed,
+        e.replayed,
+        passed,
+        first.len(),
+        e.uncertain
+    );
+    assert_eq!(e.max_members, 24);
+    assert!(e.replayed <= 24);
+    assert_eq!(e.replayed > 8, undecided && first.len() == 8, "{e:?}");
+    assert!(!e.uncertain || e.replayed == 24, "{e:?}");
+    assert!(
+        e.replayed > 8,
+        "the slip limit's ensemble is undecided at 8: {e:?}"
     );
 }

@@ -167,6 +167,11 @@ pub struct EnsembleArgs {
     /// trajectory's name): the same seed gives the same reports.
     #[arg(long, value_name = "S")]
     pub ensemble_seed: Option<u64>,
+    /// Most replays for a trajectory whose decision stays uncertain (its 95 % interval
+    /// contains the keep threshold): K more at a time until it is certain or this many are
+    /// replayed (default 32, or the config's params.physics.ensemble.max_members; K for none).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub ensemble_max: Option<u32>,
 }
 
 impl EnsembleArgs {
@@ -175,6 +180,7 @@ impl EnsembleArgs {
         PhysicsOptions {
             ensemble: self.ensemble.map(|k| k as usize),
             ensemble_seed: self.ensemble_seed,
+            ensemble_max: self.ensemble_max.map(|n| n as usize),
             ..PhysicsOptions::default()
         }
     }

@@ -109,7 +109,7 @@ pub fn run(args: AugmentArgs, limits: Limits) -> Result<()> {
     );
     if let Some(e) = &s.ensemble {
         eprintln!(
-            "ensemble verdicts: {} samples, median pass fraction {}, {} uncertain ({} of them kept); {} of {} replays run (the early stop saved the rest)",
+            "ensemble verdicts: {} samples, median pass fraction {}, {} uncertain ({} of them kept); {} replays run for the {} asked (the early stop saves some, an uncertain decision takes more)",
             e.samples,
             e.pass_fraction
                 .median
