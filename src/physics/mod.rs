@@ -20,8 +20,8 @@
 //! 5. **verdict**: every failed check as a sentence (`verdict.rs`), in a [`PhysicsReport`]
 //!    that converts to the report's `PhysicsSummary`;
 //! 6. **ensemble** ([`ensemble`]): with [`Params::ensemble`] asking for more than one
-//!    member (8 by default), steps 3-5 again under seeded perturbations, and the verdict
-//!    becomes the decision on their pass fraction. With the kinematic hand the perturbed
+//!    member (8 by default, up to 32 while the decision is uncertain), steps 3-5 again under
+//!    seeded perturbations, and the verdict becomes the decision on their pass fraction. With the kinematic hand the perturbed
 //!    members of a batch share one world ([`world::ReplayWorld::shared`]), where the solver
 //!    packs their contacts into SIMD lanes one member's contacts never fill (what it saves:
 //!    docs/RESULTS.md, "Physics speed judged by pass fractions"). Everything below measures single replays
