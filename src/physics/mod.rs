@@ -124,8 +124,10 @@
 //!
 //! What the replay leaves out by default ([`Params::skip_rest`], [`Params::stop_after_drop`],
 //! `replay.rs`): the spans after the release where the object rests with no hand link within
-//! reach, the rocking of an untouched object that has not settled after 1 s, and everything
-//! after a decided drop. The regression test replays its trajectories both ways: every
+//! reach, the rocking of an untouched object that has not settled after 1 s, everything
+//! after a decided drop, and in the ensemble's perturbed members everything after a decided
+//! tracking failure (the mean error of the whole trajectory past its limit whatever follows).
+//! The regression test replays its trajectories both ways: every
 //! verdict, first reason and drop frame is the same, and where nothing is left out the
 //! per-frame figures are the same to the bit. A replay near the edge of holding is chaotic
 //! (the last-bit differences of a quaternion renormalization can turn a pass into a slip);
@@ -784,6 +786,7 @@ fn shortcuts(
         rests_at_start: params.skip_rest
             && checks::nearest_support(object, start, &named(supports))
                 .is_some_and(|(_, gap)| gap <= params.support_gap_m),
+        tracking: None,
         drop: demo
             .contact_segment()
             .filter(|_| params.stop_after_drop)
@@ -886,7 +889,18 @@ fn run_shared_replay(
         .iter()
         .zip(member_params)
         .zip(starts)
-        .map(|((d, p), start)| shortcuts(d, object, start, supports, p))
+        .map(|((d, p), start)| {
+            // A member's outcome is all the ensemble reads of it: its replay also stops once
+            // its tracking has failed beyond recovery.
+            let frames = d.frames.len() as f64;
+            replay::Shortcuts {
+                tracking: p.stop_after_drop.then(|| replay::TrackingStop {
+                    position_sum_m: p.max_mean_position_error_m * frames,
+                    rotation_sum_rad: p.max_mean_rotation_error_deg.to_radians() * frames,
+                }),
+                ..shortcuts(d, object, start, supports, p)
+            }
+        })
         .collect();
     replay::replay_shared(robot, demos, &mut world, n, &shortcuts)
 }

@@ -44,8 +44,17 @@
 //!   `checks::find_drop`); the replay goes on for the drop window (whether the hand lost
 //!   contact is read there) and stops. The trace then ends at that frame
 //!   ([`Trace::stopped_at`]) and every figure read from it covers the replayed frames only.
+//! - **Failed tracking** (the ensemble's perturbed members only, [`TrackingStop`]): once the
+//!   per-frame position or rotation errors summed so far exceed the mean limit times the
+//!   number of frames, the mean over the whole trajectory exceeds it whatever follows, and the
+//!   member fails; its replay stops there. The mean over the frames replayed exceeds the
+//!   limit too, so the member fails with the reason of the whole replay but for a failure
+//!   that would have come later. The members sharing its world go on without it, which
+//!   reorders the solver's work for them as any member's end does (measured: pass fractions
+//!   of 40 augmented samples the same but one, 15 of 32 against 16 of 30; 5 % less time).
+//!   The nominal replay is always whole.
 //!
-//! Neither applies to the actuated hand, whose links are dynamic bodies.
+//! Neither rest nor drop applies to the actuated hand, whose links are dynamic bodies.
 
 use std::time::Instant;
 
@@ -75,8 +84,8 @@ pub struct Trace {
     pub skipped_steps: usize,
     /// First frame at which the object pose was not finite.
     pub diverged_at: Option<usize>,
-    /// The last frame replayed when the replay stopped early on a decided drop: the trace's
-    /// per-frame vectors end there.
+    /// The last frame replayed when the replay stopped early on a decided drop or a decided
+    /// tracking failure: the trace's per-frame vectors end there.
     pub stopped_at: Option<usize>,
     /// The hand's contact forces on the object in the last step before each frame time.
     pub grip: Vec<GripSample>,
@@ -140,6 +149,17 @@ pub struct Shortcuts {
     pub rests_at_start: bool,
     /// Stop once a drop is decided.
     pub drop: Option<DropStop>,
+    /// Stop once a tracking failure is decided.
+    pub tracking: Option<TrackingStop>,
+}
+
+/// When a tracking failure is decided: the sums of the per-frame errors past which the mean
+/// over all the trajectory's frames exceeds its limit, whatever the frames left add (the
+/// errors are not negative): the limits times the number of frames.
+#[derive(Clone, Copy, Debug)]
+pub struct TrackingStop {
+    pub position_sum_m: f64,
+    pub rotation_sum_rad: f64,
 }
 
 /// When a drop is decided: the first frame of `segment` with the object more than
@@ -253,6 +273,9 @@ struct Run<'a> {
     /// A hand link touched the object in the current frame interval.
     touched: bool,
     dropped_at: Option<usize>,
+    /// The position [m] and rotation [rad] errors summed over the frames recorded so far
+    /// (from frame 1).
+    error_sums: (f64, f64),
 }
 
 impl<'a> Run<'a> {
@@ -295,6 +318,7 @@ impl<'a> Run<'a> {
             came_to_rest: false,
             touched: false,
             dropped_at: None,
+            error_sums: (0.0, 0.0),
         }
     }
 
@@ -384,6 +408,18 @@ impl<'a> Run<'a> {
         {
             trace.stopped_at = Some(i);
             return false;
+        }
+        if let Some(stop) = &self.shortcuts.tracking {
+            let plan = &frames[i].object;
+            self.error_sums.0 += (pose.translation.vector - plan.translation.vector).norm();
+            self.error_sums.1 += angle_between(&pose.rotation, &plan.rotation);
+            if (self.error_sums.0 > stop.position_sum_m
+                || self.error_sums.1 > stop.rotation_sum_rad)
+                && i + 1 < frames.len()
+            {
+                trace.stopped_at = Some(i);
+                return false;
+            }
         }
         true
     }

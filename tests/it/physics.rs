@@ -996,6 +996,50 @@ fn ensemble_of_a_firm_grasp_passes_in_every_member() {
     assert_eq!(report.drop, nominal.drop);
 }
 
+/// A member whose tracking fails beyond recovery stops there: the box's plan leaves its
+/// placed pose by 30 cm for the last 60 frames, so the mean position error of the whole
+/// trajectory is about 78 mm (limit 20 mm) and every member fails. The nominal replay runs
+/// to the end; each perturbed member stops once its summed errors pass 20 mm times the
+/// frames (about 16 frames into the shift), so the mean over what it replayed is a third of
+/// the nominal's, still over the limit: the same verdict for less replay.
+#[test]
+fn ensemble_members_stop_once_their_tracking_has_failed() {
+    let mut case = gripper_case(Variant::Good, None);
+    let n = case.demo.frames.len();
+    for f in &mut case.demo.frames[n - 60..] {
+        f.object.translation.vector.x += 0.3;
+    }
+    let report = run_with(&case, &Params::default());
+    let e = report.ensemble.as_ref().expect("the default ensemble");
+    let mean = |reason: &str| -> f64 {
+        let rest = reason
+            .split("mean object position error ")
+            .nth(1)
+            .unwrap_or_else(|| panic!("no mean position error in {reason:?}"));
+        rest.split(' ').next().unwrap().parse().unwrap()
+    };
+    let nominal = mean(&report.reasons.join("; "));
+    println!(
+        "nominal {nominal} mm over {n} frames; members {:?}",
+        e.member
+            .iter()
+            .map(|m| m.reason.clone())
+            .collect::<Vec<_>>()
+    );
+    assert!(nominal > 60.0, "{nominal}");
+    assert_eq!(e.passed, 0);
+    assert!(!e.uncertain);
+    for m in &e.member[1..] {
+        let reason = m.reason.as_deref().expect("a failed member has a reason");
+        let replayed_mean = mean(reason);
+        assert!(
+            replayed_mean > 20.0 && replayed_mean < nominal / 2.0,
+            "member {}: {reason}",
+            m.index
+        );
+    }
+}
+
 /// Jaws that open mid-carry drop the box in every member: pass fraction 0, the nominal's
 /// drop as the reason.
 #[test]
