@@ -297,7 +297,7 @@ pub enum Sampling {
     /// matched at random (a Latin hypercube). Where a trajectory's outcome hangs on one or
     /// two perturbations (the hand's offset across the handle, the friction), its pass
     /// fraction then varies much less from one ensemble seed to another than with
-    /// independent draws; where it does not, the draws are still independent ones' equals.
+    /// independent draws; where it does not, it varies no more.
     LatinHypercube,
 }
 
@@ -775,13 +775,18 @@ mod tests {
             offset.sort_unstable();
             assert_eq!(offset, (0..n).collect::<Vec<_>>());
         }
-        // Independent draws are the draws of before: the same stream, in the same order.
+        // Independent draws are the draws of before: the member's own stream, the hand
+        // offset's three normals first.
         let iid = EnsembleParams {
             sampling: Sampling::Independent,
             ..p.clone()
         };
-        assert_ne!(iid.draw("a", 1), p.draw("a", 1));
+        let seed = crate::math::stream_seed(fnv1a("a"), 1);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let first = standard(&mut rng) * p.hand_offset_mm;
+        assert_eq!(iid.draw("a", 1).hand_offset_mm[0], first);
         assert_eq!(iid.draw("a", 1).seed, p.draw("a", 1).seed);
+        assert_ne!(iid.draw("a", 1), p.draw("a", 1));
     }
 
     /// Φ by bisection on [`inverse_normal`] (enough for a stratum's index).

@@ -21,8 +21,8 @@
 //!    that converts to the report's `PhysicsSummary`;
 //! 6. **ensemble** ([`ensemble`]): with [`Params::ensemble`] asking for more than one
 //!    member (8 by default, up to 32 while the decision is uncertain), steps 3-5 again under
-//!    seeded perturbations, and the verdict becomes the decision on their pass fraction. With the kinematic hand the perturbed
-//!    members of a batch share one world ([`world::ReplayWorld::shared`]), where the solver
+//!    seeded perturbations, and the verdict becomes the decision on their pass fraction.
+//!    With the kinematic hand the perturbed members of a batch share one world ([`world::ReplayWorld::shared`]), where the solver
 //!    packs their contacts into SIMD lanes one member's contacts never fill (what it saves:
 //!    docs/RESULTS.md, "Physics speed judged by pass fractions"). Everything below measures single replays
 //!    (member 0, or `ensemble.members = 1`); the single verdicts it calls "at the edge" are
