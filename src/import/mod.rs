@@ -395,19 +395,8 @@ pub fn extract_contacts(
         .collect()
 }
 
-/// Assembles, writes (atomically) and reloads the demonstration.
-fn finish(
-    target: &Target,
-    robot: &Robot,
-    fps: f64,
-    poses: Vec<Pose>,
-    contacts: Option<Vec<Vec<Contact>>>,
-    limits: &Limits,
-) -> Result<Demo> {
-    finish_in(target, robot, fps, poses, contacts, None, limits)
-}
-
-/// [`finish`] with the scene the demonstration names.
+/// Assembles, writes (atomically) and reloads the demonstration, which names `scene` when
+/// given.
 fn finish_in(
     target: &Target,
     robot: &Robot,
@@ -480,11 +469,13 @@ fn finish_in(
     Ok(back)
 }
 
-/// `dexwarp import --csv`: frames (and optionally contacts) from CSV.
+/// `dexwarp import --csv`: frames (and optionally contacts) from CSV; the demonstration
+/// names `scene` when given (checked before anything is written).
 pub fn import_csv(
     frames: &Path,
     contacts_csv: Option<&Path>,
     fps: f64,
+    scene: Option<&Path>,
     target: &Target,
     limits: &Limits,
 ) -> Result<Demo> {
@@ -501,7 +492,15 @@ pub fn import_csv(
         Some(p) => Some(read_contacts_csv(p, &robot, poses.len(), limits)?),
         None => None,
     };
-    finish(target, &robot, fps, poses, contacts, limits)
+    let scene = checked_scene(scene, limits)?;
+    finish_in(target, &robot, fps, poses, contacts, scene, limits)
+}
+
+/// `scene` after checking that it loads (a scene the demonstration will name).
+fn checked_scene(scene: Option<&Path>, limits: &Limits) -> Result<Option<PathBuf>> {
+    scene
+        .map(|p| crate::model::Scene::load(p, limits).map(|_| p.to_path_buf()))
+        .transpose()
 }
 
 fn check_mass(target: &Target) -> Result<()> {
@@ -533,11 +532,13 @@ impl Default for LerobotMapping {
     }
 }
 
-/// `dexwarp import --lerobot`: episode `episode` of the dataset at `root`.
+/// `dexwarp import --lerobot`: episode `episode` of the dataset at `root`; the
+/// demonstration names `scene` when given.
 pub fn import_lerobot(
     root: &Path,
     episode: usize,
     mapping: &LerobotMapping,
+    scene: Option<&Path>,
     target: &Target,
     limits: &Limits,
 ) -> Result<Demo> {
@@ -591,7 +592,8 @@ pub fn import_lerobot(
     {
         target.name = Some(name.clone());
     }
-    finish(&target, &robot, fps, poses, None, limits)
+    let scene = checked_scene(scene, limits)?;
+    finish_in(&target, &robot, fps, poses, None, scene, limits)
 }
 
 /// The robot joint of each joint value of the state vector: the feature's names when they

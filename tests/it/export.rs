@@ -489,6 +489,39 @@ fn import_csv_errors_name_the_column_and_the_row() {
     }
 }
 
+/// `--scene` names a scene in a CSV import's demonstration (checked first: a scene that does
+/// not load fails the import, which writes nothing).
+#[test]
+fn a_csv_import_names_the_scene_it_is_given() {
+    let dir = tempfile::tempdir().unwrap();
+    gripper_fixture(dir.path());
+    let limits = Limits::default();
+    let src = Demo::load(&dir.path().join("box.demo.json"), &limits).unwrap();
+    let csv = dir.path().join("rec.csv");
+    write_csv(&src, &csv, None, |_, _| {});
+    let out = dir.path().join("rec.demo.json");
+    let kitchen = repo("scenes/kitchen.json");
+    let mut args = import_args(s(&csv), s(&out));
+    args.extend(["--scene", s(&kitchen)]);
+    let o = run_import(args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("scene "), "{}", stderr(&o));
+    let demo = Demo::load(&out, &limits).unwrap();
+    assert_eq!(
+        demo.scene.as_deref().map(|p| p.canonicalize().unwrap()),
+        Some(kitchen.canonicalize().unwrap())
+    );
+
+    let missing = dir.path().join("no_such.scene.json");
+    let out2 = dir.path().join("rec2.demo.json");
+    let mut args = import_args(s(&csv), s(&out2));
+    args.extend(["--scene", s(&missing)]);
+    let o = run_import(args);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no_such.scene.json"), "{}", stderr(&o));
+    assert!(!out2.exists(), "a failed import wrote its output");
+}
+
 #[test]
 fn import_then_export_then_import_gives_the_same_trajectory() {
     let dir = tempfile::tempdir().unwrap();

@@ -33,8 +33,9 @@ pub struct ImportArgs {
     /// human hand's.
     #[arg(long, value_name = "FILE", requires = "keypoints")]
     keypoint_map: Option<PathBuf>,
-    /// A scene for the demonstration instead of the table inferred from the recording.
-    #[arg(long, value_name = "FILE", requires = "keypoints")]
+    /// A scene the demonstration names (its supports and barriers; with --keypoints instead
+    /// of the table inferred from the recording).
+    #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
     /// Retargeting parameters (JSON: touch and release distances, regrasps, smoothing;
     /// docs/FORMATS.md); absent fields keep their defaults.
@@ -154,7 +155,14 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
             let Some(fps) = fps else {
                 anyhow::bail!("--fps is required with --csv: the frame rate of the recording [Hz]");
             };
-            dexwarp::import::import_csv(&csv, contacts.as_deref(), fps, &target, &limits)?
+            dexwarp::import::import_csv(
+                &csv,
+                contacts.as_deref(),
+                fps,
+                scene.as_deref(),
+                &target,
+                &limits,
+            )?
         }
         (None, Some(root)) => dexwarp::import::import_lerobot(
             &root,
@@ -163,6 +171,7 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
                 state_key,
                 object_key,
             },
+            scene.as_deref(),
             &target,
             &limits,
         )?,
@@ -190,10 +199,14 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         .filter(|f| !f.contacts.is_empty())
         .count();
     eprintln!(
-        "wrote {}: {} frames at {} Hz, {with} with correspondences",
+        "wrote {}: {} frames at {} Hz, {with} with correspondences{}",
         out.display(),
         demo.frames.len(),
-        demo.fps
+        demo.fps,
+        demo.scene
+            .as_ref()
+            .map(|s| format!("; scene {}", s.display()))
+            .unwrap_or_default()
     );
     Ok(())
 }
