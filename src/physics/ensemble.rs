@@ -33,8 +33,9 @@
 //! K − 2 are replayed as one batch and the last one only if needed; the ensemble stops once no
 //! outcome of the members left could change the decision or its certainty. A decision still
 //! uncertain after K members gets K more, one batch at a time, until it is certain or
-//! [`EnsembleParams::max_members`] (default 32) are replayed: at K = 8 a trajectory that holds
-//! 6 times in 10 is kept or dropped by the draw of the members one time in five, at 32 rarely.
+//! [`EnsembleParams::max_members`] (default 32) are replayed: a trajectory that holds 6 times
+//! in 10 is dropped by the draw of independent members one time in six at K = 8, one in eleven
+//! at 32, and less often with the hypercube's draws (below).
 //! Which members count is decided in member order, whatever the batch, so the report is the
 //! same on any number of cores.
 //!

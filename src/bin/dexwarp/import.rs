@@ -177,15 +177,27 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         )?,
         (None, None) => anyhow::bail!("give --csv FILE or --lerobot DIR"),
     };
+    report_import(&out, &demo, &target.mesh, &limits);
+    Ok(())
+}
+
+/// The summary of a `--csv` or `--lerobot` import on stderr, with what the object mesh as
+/// given needs.
+fn report_import(
+    out: &std::path::Path,
+    demo: &dexwarp::model::Demo,
+    mesh_path: &std::path::Path,
+    limits: &dexwarp::Limits,
+) {
     // The mesh the demonstration names as given: every later command repairs it the same way
     // in memory (or refuses it), and says so; say it here first.
     if let Ok(mesh) =
-        dexwarp::geometry::Mesh::load(&target.mesh, nalgebra::Vector3::repeat(1.0), &limits)
+        dexwarp::geometry::Mesh::load(mesh_path, nalgebra::Vector3::repeat(1.0), limits)
         && let (_, Some(repair)) = dexwarp::geometry::hull::solid_mesh(&mesh)
     {
         eprintln!(
             "{}: the object mesh is not closed and outward as given: {repair}; {}",
-            target.mesh.display(),
+            mesh_path.display(),
             if repair.closed {
                 "every command uses it so repaired"
             } else {
@@ -208,7 +220,6 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
             .map(|s| format!("; scene {}", s.display()))
             .unwrap_or_default()
     );
-    Ok(())
 }
 
 /// The summary of a keypoint import on stderr.
