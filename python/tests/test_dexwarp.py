@@ -162,15 +162,19 @@ def test_validate_takes_the_ensemble_of_the_command_line(cli, warped, tmp_path):
     warped.demo.save(path)
     out = tmp_path / "v"
     subprocess.run(
-        [cli, "validate", path, "--out", out, "--ensemble", "3", "--ensemble-seed", "5"],
+        [cli, "validate", path, "--out", out, "--ensemble", "3", "--ensemble-seed", "5",
+         "--ensemble-max", "6"],
         check=True,
         capture_output=True,
     )
     expected = json.loads((out / "report.json").read_text())
-    report = dexwarp.validate(dexwarp.Demo.load(path), ensemble=3, ensemble_seed=5)
+    report = dexwarp.validate(
+        dexwarp.Demo.load(path), ensemble=3, ensemble_seed=5, ensemble_max=6
+    )
     assert_same(without_timing(report), without_timing(expected))
     e = report["physics"]["ensemble"]
-    assert e["members"] == 3 and e["seed"] == 5, e
+    assert e["members"] == 3 and e["seed"] == 5 and e["max_members"] == 6, e
+    assert e["replayed"] <= 6, e
     assert e["member"][0]["draw"]["friction_scale"] == 1.0
     single = dexwarp.validate(dexwarp.Demo.load(path), ensemble=1)
     assert single["physics"]["ensemble"] is None
