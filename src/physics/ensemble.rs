@@ -236,24 +236,24 @@ impl EnsembleParams {
         let base = self.seed ^ fnv1a(name);
         let seed = crate::math::stream_seed(base, member as u64);
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let u: [f64; DIMS] = match self.sampling {
-            Sampling::Independent => {
-                return self.draw_from(seed, |_, gauss| {
-                    if gauss {
-                        standard(&mut rng)
-                    } else {
-                        rng.random::<f64>()
-                    }
-                });
+        match self.sampling {
+            Sampling::Independent => self.draw_from(seed, |_, gauss| {
+                if gauss {
+                    standard(&mut rng)
+                } else {
+                    rng.random::<f64>()
+                }
+            }),
+            Sampling::LatinHypercube => {
+                let u = latin_hypercube(base, self.members, member, &mut rng);
+                self.draw_from(
+                    seed,
+                    |d, gauss| {
+                        if gauss { inverse_normal(u[d]) } else { u[d] }
+                    },
+                )
             }
-            Sampling::LatinHypercube => latin_hypercube(base, self.members, member, &mut rng),
-        };
-        self.draw_from(
-            seed,
-            |d, gauss| {
-                if gauss { inverse_normal(u[d]) } else { u[d] }
-            },
-        )
+        }
     }
 
     /// The draw whose `d`-th coordinate is `sample(d, gauss)`: a standard normal value when

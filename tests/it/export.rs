@@ -1,7 +1,7 @@
 //! `export` and `import`: a LeRobot v3 dataset read back through the parquet crate frame by
 //! frame and column by column, CSV import errors, and import -> export -> import.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use dexwarp::Limits;
 use dexwarp::export::lerobot::{self, Column};
@@ -489,16 +489,22 @@ fn import_csv_errors_name_the_column_and_the_row() {
     }
 }
 
+/// A folder with the gripper fixture and its demonstration written as `rec.csv`.
+fn gripper_csv() -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    gripper_fixture(dir.path());
+    let src = Demo::load(&dir.path().join("box.demo.json"), &Limits::default()).unwrap();
+    let csv = dir.path().join("rec.csv");
+    write_csv(&src, &csv, None, |_, _| {});
+    (dir, csv)
+}
+
 /// `--scene` names a scene in a CSV import's demonstration (checked first: a scene that does
 /// not load fails the import, which writes nothing).
 #[test]
 fn a_csv_import_names_the_scene_it_is_given() {
-    let dir = tempfile::tempdir().unwrap();
-    gripper_fixture(dir.path());
+    let (dir, csv) = gripper_csv();
     let limits = Limits::default();
-    let src = Demo::load(&dir.path().join("box.demo.json"), &limits).unwrap();
-    let csv = dir.path().join("rec.csv");
-    write_csv(&src, &csv, None, |_, _| {});
     let out = dir.path().join("rec.demo.json");
     let kitchen = repo("scenes/kitchen.json");
     let mut args = import_args(s(&csv), s(&out));
@@ -524,12 +530,8 @@ fn a_csv_import_names_the_scene_it_is_given() {
 
 #[test]
 fn import_then_export_then_import_gives_the_same_trajectory() {
-    let dir = tempfile::tempdir().unwrap();
-    gripper_fixture(dir.path());
+    let (dir, csv) = gripper_csv();
     let limits = Limits::default();
-    let src = Demo::load(&dir.path().join("box.demo.json"), &limits).unwrap();
-    let csv = dir.path().join("rec.csv");
-    write_csv(&src, &csv, None, |_, _| {});
     let first = dir.path().join("rec.demo.json");
     let o = run_import(import_args(s(&csv), s(&first)));
     assert!(o.status.success(), "{}", stderr(&o));

@@ -111,12 +111,12 @@ pub struct Stats {
 /// first frame starts from `init`, e.g. the baseline hand; with the rigid warm start every
 /// frame starts from `init` at that frame). A frame the carried-along start leaves short of
 /// the stop rule is solved again (LM only: Adam stays the paper's solver as printed) from
-/// `init` at that frame when the objective there starts
-/// below [`RESTART_GATE`] times the carried hand's end, and takes that solution when it
-/// meets the stop rule and ends lower ([`Stats::restarted`]): where the carried hand is caught on the wrong
-/// side of a rim or a thin wall, the recording's own grasp is not; where neither start gets
-/// there (a hand held off by a barrier) the carried one is kept, so the hand does not jump
-/// between them. A frame whose `t*` has no
+/// `init` at that frame when the objective there is below [`RESTART_GATE`] times the carried
+/// hand's end, and takes that solution when it meets the stop rule and ends lower
+/// ([`Stats::restarted`]): where the carried hand is caught on the wrong side of a rim or a
+/// thin wall, the recording's own grasp is not; where neither start gets there (a hand held
+/// off by a barrier) the carried one is kept, so the hand does not jump between them. A frame
+/// whose `t*` has no
 /// correspondences (a gap inside the segment) has nothing to fit: its hand is the previous
 /// solution carried along by the object's motion. Frames outside the contact segment are
 /// copied from `init` (the rigid shift of stage 1). `demo` must be in robot joint order
@@ -207,18 +207,16 @@ pub fn run(
         {
             let mut w2 = init.wrists[t];
             q2.copy_from_slice(init.q(t));
-            // One iteration to read the objective at the recorded grasp: where it starts
-            // above [`RESTART_GATE`] times the carried hand's end (a hand held off by a
-            // barrier), no full solve is spent on it.
-            let probe = solver.solve_capped(&object_pose, contacts, &mut w2, &mut q2, target_m, 1);
-            let r2 = if probe.objective_start < RESTART_GATE * r.objective_end && !probe.converged {
-                w2 = init.wrists[t];
-                q2.copy_from_slice(init.q(t));
-                solver.solve_within(&object_pose, contacts, &mut w2, &mut q2, target_m)
-            } else {
-                probe
-            };
-            if r2.converged && r2.objective_end < r.objective_end && !r2.non_finite {
+            // Where the recorded grasp starts above [`RESTART_GATE`] times the carried hand's
+            // end (a hand held off by a barrier), no solve is spent on it.
+            let start = solver.objective_at(&object_pose, contacts, &w2, &q2, target_m);
+            let r2 = (start < RESTART_GATE * r.objective_end)
+                .then(|| solver.solve_within(&object_pose, contacts, &mut w2, &mut q2, target_m));
+            if let Some(r2) = r2
+                && r2.converged
+                && r2.objective_end < r.objective_end
+                && !r2.non_finite
+            {
                 wrist = w2;
                 q.copy_from_slice(&q2);
                 r = r2;

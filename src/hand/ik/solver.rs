@@ -194,34 +194,30 @@ impl<'a> IkSolver<'a> {
         self.solve_within(object_pose, contacts, wrist, q, threshold_m)
     }
 
-    /// [`IkSolver::solve_within`] with at most `cap` iterations (a quick second try).
-    pub fn solve_capped(
+    /// The objective `F` at `wrist`, `q` (what [`IkSolver::solve_within`] would start from),
+    /// without solving: whether a second start is worth a solve.
+    pub fn objective_at(
         &mut self,
         object_pose: &Isometry3<f64>,
         contacts: &[ResolvedContact],
-        wrist: &mut Isometry3<f64>,
-        q: &mut [f64],
+        wrist: &Isometry3<f64>,
+        q: &[f64],
         threshold_m: f64,
-        cap: usize,
-    ) -> FrameResult {
-        let saved = self.params.max_iterations;
-        self.params.max_iterations = cap.max(1);
-        let r = self.solve_within(object_pose, contacts, wrist, q, threshold_m);
-        self.params.max_iterations = saved;
-        r
+    ) -> f64 {
+        self.prepare(object_pose, wrist, q, threshold_m);
+        self.evaluate(false, object_pose, contacts, wrist, q)
+            .total(contacts.len())
     }
 
-    /// [`IkSolver::solve`] with the stop rule's contact threshold `threshold_m` [m] for this
-    /// frame instead of [`Params::threshold_mm`] (see [`run`](super::run): never above the recording's
-    /// own fit).
-    pub fn solve_within(
+    /// Sets what a solve from `wrist`, `q` at `object_pose` reads: the stop rule's threshold,
+    /// the start, the object's frame for the penetration probes and the surface obstacle.
+    fn prepare(
         &mut self,
         object_pose: &Isometry3<f64>,
-        contacts: &[ResolvedContact],
-        wrist: &mut Isometry3<f64>,
-        q: &mut [f64],
+        wrist: &Isometry3<f64>,
+        q: &[f64],
         threshold_m: f64,
-    ) -> FrameResult {
+    ) {
         self.target_m = threshold_m;
         assert_eq!(q.len(), self.geo.robot.dof(), "q has the wrong length");
         self.wrist0 = *wrist;
@@ -236,6 +232,20 @@ impl<'a> IkSolver<'a> {
             }
             _ => None,
         };
+    }
+
+    /// [`IkSolver::solve`] with the stop rule's contact threshold `threshold_m` [m] for this
+    /// frame instead of [`Params::threshold_mm`] (see [`run`](super::run): never above the recording's
+    /// own fit).
+    pub fn solve_within(
+        &mut self,
+        object_pose: &Isometry3<f64>,
+        contacts: &[ResolvedContact],
+        wrist: &mut Isometry3<f64>,
+        q: &mut [f64],
+        threshold_m: f64,
+    ) -> FrameResult {
+        self.prepare(object_pose, wrist, q, threshold_m);
         let start = self.evaluate(false, object_pose, contacts, wrist, q);
         let f_start = start.total(contacts.len());
         let (converged, iterations, eval, capped) = match self.params.solver {
