@@ -405,9 +405,9 @@ fn a_held_grasp_yields_to_a_wall_only_as_far_as_the_clearance_asks() {
         slide(&wide),
         physics.verdict,
     );
-    // The pot stays in the hand as written (the nominal replay, member 0). Its ensemble sits
-    // near the threshold (11 of 28 with the default draws): a grasp at the edge, which a
-    // test of the yield must not decide on.
+    // The pot stays in the hand as written (the nominal replay, member 0). Its ensemble is
+    // at the edge of holding (9 of 31 members hold with the default draws): a test of the
+    // yield must not decide on it.
     let ensemble = physics.ensemble().expect("the default ensemble");
     eprintln!(
         "ensemble: {} of {} hold",
