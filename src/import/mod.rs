@@ -22,6 +22,10 @@
 //! `names` after the first 7 when they name the URDF's actuated joints, else the URDF's
 //! actuated order. Correspondences are extracted geometrically.
 //!
+//! **Cleaning** ([`clean`], unless `--no-clean`): the mesh repaired, the table inferred (or
+//! `--scene`), the rest poses settled, the hand smoothed and taken out of the object and the
+//! table; `NAME.import.json` says what it cost per frame.
+//!
 //! Every error names the file, the column (or field) and the row. The output is written
 //! atomically and read back through the demonstration loader before the command succeeds.
 
@@ -30,10 +34,12 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
 
+pub mod clean;
 pub mod keypoints;
 mod recorded;
 
-pub use recorded::{KeypointImport, KeypointOptions, import_keypoints};
+pub use clean::{CleanOptions, RobotImport};
+pub use recorded::{KeypointImport, KeypointOptions, RestCorrection, import_keypoints};
 
 use crate::export::lerobot::{self, Column};
 use crate::geometry::Mesh;
@@ -469,16 +475,55 @@ fn finish_in(
     Ok(back)
 }
 
-/// `dexwarp import --csv`: frames (and optionally contacts) from CSV; the demonstration
-/// names `scene` when given (checked before anything is written).
+/// What a `--csv` or `--lerobot` import made: the demonstration, and what the cleaning did
+/// (`None` with `--no-clean`).
+pub type Imported = (Demo, Option<RobotImport>);
+
+/// The demonstration of `poses`: cleaned ([`clean`]) when `clean` is given, else written as
+/// recorded, naming `scene` when given (checked before anything is written).
+#[allow(clippy::too_many_arguments)]
+fn finish_recorded(
+    source: clean::Source<'_>,
+    robot: &Robot,
+    fps: f64,
+    poses: Vec<Pose>,
+    contacts: Option<Vec<Vec<Contact>>>,
+    scene: Option<&Path>,
+    clean: Option<&CleanOptions>,
+    target: &Target,
+    limits: &Limits,
+) -> Result<Imported> {
+    let scene = checked_scene(scene, limits)?;
+    match clean {
+        Some(options) => {
+            let options = CleanOptions {
+                scene,
+                ..options.clone()
+            };
+            let import = clean::clean(
+                source, robot, fps, poses, contacts, &options, target, limits,
+            )?;
+            Ok((import.demo.clone(), Some(import)))
+        }
+        None => Ok((
+            finish_in(target, robot, fps, poses, contacts, scene, limits)?,
+            None,
+        )),
+    }
+}
+
+/// `dexwarp import --csv`: frames (and optionally contacts) from CSV, cleaned unless `clean`
+/// is `None` (see [`clean`]); the demonstration names `scene` when given (checked before
+/// anything is written), else the inferred table when cleaned.
 pub fn import_csv(
     frames: &Path,
     contacts_csv: Option<&Path>,
     fps: f64,
     scene: Option<&Path>,
+    clean: Option<&CleanOptions>,
     target: &Target,
     limits: &Limits,
-) -> Result<Demo> {
+) -> Result<Imported> {
     crate::model::json::FieldCheck::new(frames).in_range(
         || "--fps".into(),
         fps,
@@ -492,8 +537,13 @@ pub fn import_csv(
         Some(p) => Some(read_contacts_csv(p, &robot, poses.len(), limits)?),
         None => None,
     };
-    let scene = checked_scene(scene, limits)?;
-    finish_in(target, &robot, fps, poses, contacts, scene, limits)
+    let source = clean::Source {
+        path: frames,
+        columns: ["object.x..object.qz", "wrist.z"],
+    };
+    finish_recorded(
+        source, &robot, fps, poses, contacts, scene, clean, target, limits,
+    )
 }
 
 /// `scene` after checking that it loads (a scene the demonstration will name).
@@ -532,16 +582,17 @@ impl Default for LerobotMapping {
     }
 }
 
-/// `dexwarp import --lerobot`: episode `episode` of the dataset at `root`; the
-/// demonstration names `scene` when given.
+/// `dexwarp import --lerobot`: episode `episode` of the dataset at `root`, cleaned unless
+/// `clean` is `None`; the demonstration names `scene` when given.
 pub fn import_lerobot(
     root: &Path,
     episode: usize,
     mapping: &LerobotMapping,
     scene: Option<&Path>,
+    clean: Option<&CleanOptions>,
     target: &Target,
     limits: &Limits,
-) -> Result<Demo> {
+) -> Result<Imported> {
     check_mass(target)?;
     let robot = Robot::from_urdf_file(&target.robot, limits)?;
     let ds = lerobot::read(root)?;
@@ -592,8 +643,14 @@ pub fn import_lerobot(
     {
         target.name = Some(name.clone());
     }
-    let scene = checked_scene(scene, limits)?;
-    finish_in(&target, &robot, fps, poses, None, scene, limits)
+    let columns = [mapping.object_key.as_str(), mapping.state_key.as_str()];
+    let source = clean::Source {
+        path: &data,
+        columns,
+    };
+    finish_recorded(
+        source, &robot, fps, poses, None, scene, clean, &target, limits,
+    )
 }
 
 /// The robot joint of each joint value of the state vector: the feature's names when they

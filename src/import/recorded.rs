@@ -13,7 +13,7 @@ use std::time::Instant;
 use nalgebra::{Isometry3, Vector3};
 use serde::Serialize;
 
-use super::keypoints::{self, Handedness, KeypointMap, Recording};
+use super::keypoints::{self, Handedness, KeypointMap};
 use super::{Target, check_mass, finish_in};
 use crate::geometry::{Mesh, Repair};
 use crate::model::Demo;
@@ -92,7 +92,7 @@ pub struct PerFrame {
 }
 
 /// The file `NAME.SUFFIX` beside the demonstration `out` (`DIR/NAME.demo.json`).
-fn beside(out: &Path, suffix: &str) -> PathBuf {
+pub(crate) fn beside(out: &Path, suffix: &str) -> PathBuf {
     let name = out
         .file_name()
         .map(|s| s.to_string_lossy().to_string())
@@ -107,32 +107,39 @@ fn beside(out: &Path, suffix: &str) -> PathBuf {
 
 /// The height of the support under the object: its lowest point at the first frame, where
 /// the recording has it at rest. World z must be up: no frame may put the object's lowest
-/// point more than 2 cm below that (it would go through the support), and the wrist must be
-/// above it at the first frame.
-pub fn infer_table(path: &Path, rec: &Recording, mesh: &Mesh) -> Result<f64> {
+/// point more than 2 cm below that (it would go through the support), and the hand must be
+/// above it at the first frame. `columns`: the recording's names of the object's pose
+/// columns and of the hand's height, for the errors.
+pub fn infer_table(
+    path: &Path,
+    columns: [&str; 2],
+    object: &[Isometry3<f64>],
+    hand_z0: f64,
+    mesh: &Mesh,
+) -> Result<f64> {
     let lowest = |pose: &Isometry3<f64>| {
         mesh.vertices
             .iter()
             .map(|v| (pose * v).z)
             .fold(f64::INFINITY, f64::min)
     };
-    let top = lowest(&rec.object[0]);
-    if let Some(t) = (0..rec.len()).find(|&t| lowest(&rec.object[t]) < top - 0.02) {
+    let top = lowest(&object[0]);
+    if let Some(t) = (0..object.len()).find(|&t| lowest(&object[t]) < top - 0.02) {
         return Err(Error::invalid(
             path,
-            format!("row {}, obj_x..obj_qz", t + 1),
+            format!("row {}, {}", t + 1, columns[0]),
             format!(
                 "puts the object's lowest point at z = {:.3} m, below where it rests at the first frame ({top:.3} m); expected world z up and the object starting on its support; give a scene with --scene",
-                lowest(&rec.object[t])
+                lowest(&object[t])
             ),
         ));
     }
-    if rec.keypoints[0][0].z < top {
+    if hand_z0 < top {
         return Err(Error::invalid(
             path,
-            "row 1, wrist_z",
+            format!("row 1, {}", columns[1]),
             format!(
-                "puts the wrist below the support inferred at z = {top:.3} m; expected world z up"
+                "puts the hand below the support inferred at z = {top:.3} m; expected world z up"
             ),
         ));
     }
@@ -141,8 +148,8 @@ pub fn infer_table(path: &Path, rec: &Recording, mesh: &Mesh) -> Result<f64> {
 
 /// The inferred scene: a table 0.8 m across and 4 cm thick whose top is at `top`, centred
 /// under the object's first position.
-fn table_scene(name: &str, rec: &Recording, top: f64) -> SceneFile {
-    let c = rec.object[0].translation.vector;
+fn table_scene(name: &str, first: &Isometry3<f64>, top: f64) -> SceneFile {
+    let c = first.translation.vector;
     SceneFile {
         format: SCENE_FORMAT.into(),
         name: format!("{name} (inferred from the recording)"),
@@ -162,11 +169,14 @@ fn table_scene(name: &str, rec: &Recording, top: f64) -> SceneFile {
 
 /// Frames where the object has moved more than 5 mm from its first pose before the first
 /// frame the hand touches it.
-fn moved_before_touch(rec: &Recording, touch: Option<[usize; 2]>) -> Option<[usize; 2]> {
-    let first = touch.map_or(rec.len(), |t| t[0]);
-    let start = rec.object[0].translation.vector;
+pub(crate) fn moved_before_touch(
+    object: &[Isometry3<f64>],
+    touch: Option<[usize; 2]>,
+) -> Option<[usize; 2]> {
+    let first = touch.map_or(object.len(), |t| t[0]);
+    let start = object[0].translation.vector;
     let moved: Vec<usize> = (0..first)
-        .filter(|&t| (rec.object[t].translation.vector - start).norm() > 0.005)
+        .filter(|&t| (object[t].translation.vector - start).norm() > 0.005)
         .collect();
     Some([*moved.first()?, *moved.last()?])
 }
@@ -281,17 +291,18 @@ pub const REST_TOLERANCE: (f64, f64) = (15.0, 10.0);
 /// pose is then off by as much and pushes the object before the lift. The first and the last
 /// pose are each let go on the supports with no hand about for a second of simulated time;
 /// the correction (in the object's own frame) is applied in full while the object rests
-/// within 5 mm of its first (last) pose, blended between, and carried by the hand keypoints
-/// as well, so the hand-object relation of every frame stays as recorded.
+/// within 5 mm of its first (last) pose, blended between. Returns, besides what was done,
+/// each frame's correction as a motion of the world: the caller moves the hand by it, so the
+/// hand-object relation of every frame stays as recorded.
 pub fn settle_rest_poses(
-    rec: &mut Recording,
+    object: &mut [Isometry3<f64>],
     robot: &Robot,
     mesh_path: &Path,
     mesh: &Mesh,
     mass: f64,
     supports: &[crate::geometry::shape::CollisionShape],
-) -> Result<RestCorrection> {
-    let n = rec.len();
+) -> Result<(RestCorrection, Vec<Isometry3<f64>>)> {
+    let n = object.len();
     let shape = crate::geometry::hull::object_shape(mesh, &Default::default())
         .map_err(|e| Error::invalid(mesh_path, "(mesh)", e.to_string()))?
         .0;
@@ -304,10 +315,10 @@ pub fn settle_rest_poses(
         let ok = mm <= REST_TOLERANCE.0 && deg <= REST_TOLERANCE.1;
         (if ok { delta } else { Isometry3::identity() }, mm, deg, ok)
     };
-    let (first, start_mm, start_deg, start_corrected) = settle(&rec.object[0]);
-    let (last, end_mm, end_deg, end_corrected) = settle(&rec.object[n - 1]);
+    let (first, start_mm, start_deg, start_corrected) = settle(&object[0]);
+    let (last, end_mm, end_deg, end_corrected) = settle(&object[n - 1]);
     let near = |t: usize, to: usize| {
-        (rec.object[t].translation.vector - rec.object[to].translation.vector).norm() <= 0.005
+        (object[t].translation.vector - object[to].translation.vector).norm() <= 0.005
     };
     // Frames [0, lift) rest at the start, [down, n) at the end.
     let lift = (0..n).find(|&t| !near(t, 0)).unwrap_or(n);
@@ -315,7 +326,8 @@ pub fn settle_rest_poses(
         .rev()
         .find(|&t| !near(t, n - 1))
         .map_or(lift, |t| t + 1);
-    for t in 0..n {
+    let mut world = Vec::with_capacity(n);
+    for (t, pose) in object.iter_mut().enumerate() {
         let delta = if t < lift {
             first
         } else if t >= down {
@@ -324,29 +336,28 @@ pub fn settle_rest_poses(
             let s = (t + 1 - lift) as f64 / (down - lift + 1) as f64;
             first.lerp_slerp(&last, s)
         };
-        let before = rec.object[t];
-        let after = before * delta;
-        let world = after * before.inverse();
-        rec.object[t] = after;
-        for p in rec.keypoints[t].iter_mut() {
-            *p = world * *p;
-        }
+        let before = *pose;
+        *pose = before * delta;
+        world.push(*pose * before.inverse());
     }
-    Ok(RestCorrection {
-        start_mm,
-        start_deg,
-        start_corrected,
-        end_mm,
-        end_deg,
-        end_corrected,
-    })
+    Ok((
+        RestCorrection {
+            start_mm,
+            start_deg,
+            start_corrected,
+            end_mm,
+            end_deg,
+            end_corrected,
+        },
+        world,
+    ))
 }
 
 /// The object mesh made solid as physics makes it ([`crate::geometry::hull::solid_mesh`]):
 /// repaired when open or inside out, refused when that cannot close it (or replaced by its
 /// hull with `hull_fallback`); returns the mesh, the repair, and the hull's and mesh's
 /// volumes [cm³] when the hull stands in.
-fn solid_object(
+pub(crate) fn solid_object(
     path: &Path,
     mesh: Mesh,
     hull_fallback: bool,
@@ -363,6 +374,103 @@ fn solid_object(
         .convex_hull_mesh()
         .ok_or_else(|| refused(crate::geometry::hull::ShapeError::Degenerate))?;
     Ok((hull_mesh, repair, Some([hull * 1e6, whole * 1e6])))
+}
+
+/// What [`place_object`] needs to know of an import.
+pub(crate) struct Placing<'a> {
+    /// The recording and its names of the object's pose columns and of the hand's height.
+    pub recording: &'a Path,
+    pub columns: [&'a str; 2],
+    /// The object mesh as the demonstration will name it (made solid, mirrored), and whether
+    /// it must be written beside the demonstration (it is not the input file).
+    pub mesh: Mesh,
+    pub write_mesh: bool,
+    /// A scene given with `--scene`, instead of the inferred table.
+    pub scene: Option<&'a Path>,
+    /// The demonstration's name (for the inferred scene's).
+    pub name: &'a str,
+    /// The hand's height at the first frame [m] (it must be above the inferred table).
+    pub hand_z0: f64,
+}
+
+/// The object in its scene, as [`place_object`] left it.
+pub(crate) struct Placed {
+    pub mesh: Mesh,
+    pub mesh_path: PathBuf,
+    pub scene_path: PathBuf,
+    /// The inferred table's top [m] (`None`: a scene was given).
+    pub table_top: Option<f64>,
+    pub supports: Vec<crate::geometry::shape::CollisionShape>,
+    pub rest_correction: Option<RestCorrection>,
+    /// Per frame, the rest correction as a motion of the world ([`settle_rest_poses`]): the
+    /// caller moves the hand by it.
+    pub world: Vec<Isometry3<f64>>,
+}
+
+/// Puts the recorded object in a scene: writes the mesh beside the demonstration when it is
+/// not the input's, names the given scene or writes the table inferred under the object
+/// ([`infer_table`]), and settles the object's rest poses on the supports
+/// ([`settle_rest_poses`], `object` corrected in place).
+pub(crate) fn place_object(
+    placing: Placing<'_>,
+    object: &mut [Isometry3<f64>],
+    robot: &Robot,
+    target: &Target,
+    limits: &Limits,
+) -> Result<Placed> {
+    let out = &target.out;
+    if let Some(dir) = out.parent()
+        && !dir.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
+    }
+    let mut mesh = placing.mesh;
+    let mesh_path = if placing.write_mesh {
+        let p = beside(out, "object.obj");
+        crate::model::json::write_atomic(&p, mesh.to_obj_string().as_bytes())?;
+        // What every later command reads back.
+        mesh = Mesh::load(&p, Vector3::repeat(1.0), limits)?;
+        p
+    } else {
+        target.mesh.clone()
+    };
+    let (scene_path, table_top) = match placing.scene {
+        Some(s) => (s.to_path_buf(), None),
+        None => {
+            let top = infer_table(
+                placing.recording,
+                placing.columns,
+                object,
+                placing.hand_z0,
+                &mesh,
+            )?;
+            let p = beside(out, "scene.json");
+            crate::model::json::write_json_atomic(&p, &table_scene(placing.name, &object[0], top))?;
+            (p, Some(top))
+        }
+    };
+    let scene = Scene::load(&scene_path, limits)?;
+    let supports: Vec<_> = scene
+        .items
+        .iter()
+        .filter(|i| i.role == Role::Support)
+        .map(|i| scene.collision_shape(i, limits))
+        .collect::<Result<_>>()?;
+    let (rest_correction, world) = if supports.is_empty() {
+        (None, vec![Isometry3::identity(); object.len()])
+    } else {
+        let (r, w) = settle_rest_poses(object, robot, &mesh_path, &mesh, target.mass, &supports)?;
+        (Some(r), w)
+    };
+    Ok(Placed {
+        mesh,
+        mesh_path,
+        scene_path,
+        table_top,
+        supports,
+        rest_correction,
+        world,
+    })
 }
 
 /// `dexwarp import --keypoints` (see the module docs and [`keypoints`]).
@@ -395,56 +503,44 @@ pub fn import_keypoints(
         mesh = keypoints::mirror_mesh(&mesh);
     }
     let out = &target.out;
-    if let Some(dir) = out.parent()
-        && !dir.as_os_str().is_empty()
-    {
-        std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
-    }
-    let mesh_path = if mirrored || mesh_repair.is_some() {
-        let p = beside(out, "object.obj");
-        crate::model::json::write_atomic(&p, mesh.to_obj_string().as_bytes())?;
-        // What every later command reads back.
-        mesh = Mesh::load(&p, Vector3::repeat(1.0), limits)?;
-        p
-    } else {
-        target.mesh.clone()
-    };
     let name = target.name.clone().unwrap_or_else(|| {
         beside(out, "x")
             .file_stem()
             .map(|s| s.to_string_lossy().to_string())
             .unwrap_or_else(|| "recording".into())
     });
-    let (scene_path, table_top) = match &options.scene {
-        Some(s) => (s.clone(), None),
-        None => {
-            let top = infer_table(frames, &rec, &mesh)?;
-            let p = beside(out, "scene.json");
-            crate::model::json::write_json_atomic(&p, &table_scene(&name, &rec, top))?;
-            (p, Some(top))
+    let hand_z0 = rec.keypoints[0][0].z;
+    let placed = place_object(
+        Placing {
+            recording: frames,
+            columns: ["obj_x..obj_qz", "wrist_z"],
+            mesh,
+            write_mesh: mirrored || mesh_repair.is_some(),
+            scene: options.scene.as_deref(),
+            name: &name,
+            hand_z0,
+        },
+        &mut rec.object,
+        &robot,
+        target,
+        limits,
+    )?;
+    for (k, world) in rec.keypoints.iter_mut().zip(&placed.world) {
+        for p in k.iter_mut() {
+            *p = world * *p;
         }
-    };
-    let scene = Scene::load(&scene_path, limits)?;
-    let supports: Vec<_> = scene
-        .items
-        .iter()
-        .filter(|i| i.role == Role::Support)
-        .map(|i| scene.collision_shape(i, limits))
-        .collect::<Result<_>>()?;
+    }
+    let Placed {
+        mesh,
+        mesh_path,
+        scene_path,
+        table_top,
+        supports,
+        rest_correction,
+        ..
+    } = placed;
     let geometry = ObjectGeometry::new(mesh.clone())
         .ok_or_else(|| Error::invalid(&mesh_path, "(mesh)", "has no triangles"))?;
-    let rest_correction = if supports.is_empty() {
-        None
-    } else {
-        Some(settle_rest_poses(
-            &mut rec,
-            &robot,
-            &mesh_path,
-            &mesh,
-            target.mass,
-            &supports,
-        )?)
-    };
     let ik = crate::hand::ik::Params {
         threshold_mm: 0.5,
         margin_m: options.params.support_margin_m,
@@ -465,7 +561,7 @@ pub fn import_keypoints(
         .ok()
         .and_then(|(s, _)| s.volume_ratio);
     warnings.extend(crate::geometry::hull::fuller_than_mesh(volume_ratio));
-    if let Some([a, b]) = moved_before_touch(&rec, hand.touch) {
+    if let Some([a, b]) = moved_before_touch(&rec.object, hand.touch) {
         warnings.push(format!(
             "the object moves more than 5 mm from its first pose on frames {a}-{b}, before the recorded hand touches it (first touch: {}); the replay cannot reproduce that",
             hand.touch.map_or("never".into(), |t| format!("frame {}", t[0]))

@@ -63,7 +63,7 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_a_grasp
     assert!(o.status.success(), "{err}");
     // The open mesh as shipped: three zero-volume slivers, removed and said.
     assert!(
-        err.contains("object mesh repaired: removed 3 zero-volume slivers"),
+        err.contains("object.obj repaired: removed 3 zero-volume slivers"),
         "{err}"
     );
     assert!(err.contains("mirrored"), "{err}");

@@ -48,6 +48,14 @@ pub struct ImportArgs {
     /// Use the convex hull of an object mesh that is open and cannot be repaired.
     #[arg(long)]
     hull_fallback: bool,
+    /// With --csv or --lerobot: write the recorded hand as it is (no smoothing, no way out of
+    /// the object and the table, no inferred table, the mesh as given).
+    #[arg(long, conflicts_with = "keypoints")]
+    no_clean: bool,
+    /// With --csv or --lerobot: Savitzky-Golay window of the hand's smoothing [frames, odd];
+    /// 1 turns it off.
+    #[arg(long, value_name = "FRAMES", default_value_t = 7, conflicts_with_all = ["keypoints", "no_clean"])]
+    smoothing_window: usize,
     /// Contacts CSV for --csv (frame, link, hand_x..z, object_x..z).
     #[arg(long, value_name = "FILE", requires = "csv")]
     contacts: Option<PathBuf>,
@@ -97,6 +105,8 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         retarget,
         no_refine,
         hull_fallback,
+        no_clean,
+        smoothing_window,
         contacts,
         fps,
         lerobot,
@@ -142,15 +152,25 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
         };
         let (import, hull) =
             dexwarp::import::import_keypoints(&frames, &options, &target, &limits)?;
-        report_keypoints(&out, &import, hull);
+        report_keypoints(&out, &target.mesh, &import, hull);
         return Ok(());
     }
-    if hull_fallback {
+    if hull_fallback && no_clean {
         anyhow::bail!(
-            "--hull-fallback applies to --keypoints imports; for others set physics.decomposition.hull_fallback in the config"
+            "--hull-fallback does not apply with --no-clean (the mesh is named as given); set physics.decomposition.hull_fallback in the config"
         );
     }
-    let demo = match (csv, lerobot) {
+    if smoothing_window == 0 || smoothing_window.is_multiple_of(2) {
+        anyhow::bail!(
+            "--smoothing-window must be odd (1 turns the smoothing off), got {smoothing_window}"
+        );
+    }
+    let clean = (!no_clean).then_some(dexwarp::import::CleanOptions {
+        smoothing_window,
+        hull_fallback,
+        scene: None,
+    });
+    let (demo, cleaned) = match (csv, lerobot) {
         (Some(csv), _) => {
             let Some(fps) = fps else {
                 anyhow::bail!("--fps is required with --csv: the frame rate of the recording [Hz]");
@@ -160,6 +180,7 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
                 contacts.as_deref(),
                 fps,
                 scene.as_deref(),
+                clean.as_ref(),
                 &target,
                 &limits,
             )?
@@ -172,23 +193,22 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
                 object_key,
             },
             scene.as_deref(),
+            clean.as_ref(),
             &target,
             &limits,
         )?,
         (None, None) => anyhow::bail!("give --csv FILE or --lerobot DIR"),
     };
-    report_import(&out, &demo, &target.mesh, &limits);
+    match cleaned {
+        Some(import) => report_cleaned(&target.mesh, &import),
+        None => report_mesh_as_given(&target.mesh, &limits),
+    }
+    report_import(&out, &demo);
     Ok(())
 }
 
-/// The summary of a `--csv` or `--lerobot` import on stderr, with what the object mesh as
-/// given needs.
-fn report_import(
-    out: &std::path::Path,
-    demo: &dexwarp::model::Demo,
-    mesh_path: &std::path::Path,
-    limits: &dexwarp::Limits,
-) {
+/// What an import with `--no-clean` leaves to the object mesh as given, on stderr.
+fn report_mesh_as_given(mesh_path: &std::path::Path, limits: &dexwarp::Limits) {
     // The mesh the demonstration names as given: every later command repairs it the same way
     // in memory (or refuses it), and says so; say it here first.
     if let Ok(mesh) =
@@ -205,6 +225,36 @@ fn report_import(
             }
         );
     }
+}
+
+/// What the cleaning of a `--csv` or `--lerobot` import did, on stderr.
+fn report_cleaned(given: &std::path::Path, import: &dexwarp::import::RobotImport) {
+    report_placement(
+        given,
+        import.mesh_repair.as_ref(),
+        import.hull_volumes_cm3,
+        &import.mesh,
+        import.table_top_z_m,
+        &import.scene,
+        import.rest_correction.as_ref(),
+    );
+    for w in &import.warnings {
+        eprintln!("warning: {w}");
+    }
+    eprintln!(
+        "cleaned: smoothed over {} frames; hand taken out of the object or the table on {} frames; deepest in the object {:.2} mm (recorded {:.2} mm); the hand's surface {:.1} mm from the recording on average, {:.1} mm at most; {:.1} s",
+        import.smoothing_window,
+        import.frames_moved,
+        import.max_penetration_mm,
+        import.max_penetration_recorded_mm,
+        import.residual_mean_mm,
+        import.residual_max_mm,
+        import.time_s
+    );
+}
+
+/// The summary of a `--csv` or `--lerobot` import on stderr.
+fn report_import(out: &std::path::Path, demo: &dexwarp::model::Demo) {
     let with = demo
         .frames
         .iter()
@@ -225,46 +275,23 @@ fn report_import(
 /// The summary of a keypoint import on stderr.
 fn report_keypoints(
     out: &std::path::Path,
+    given: &std::path::Path,
     import: &dexwarp::import::KeypointImport,
     hull: Option<[f64; 2]>,
 ) {
     let demo = &import.demo;
-    if let Some(r) = &import.mesh_repair {
-        eprintln!(
-            "object mesh repaired: {r}; written to {}",
-            import.mesh.display()
-        );
-    }
-    if let Some([h, m]) = hull {
-        eprintln!(
-            "object mesh replaced by its convex hull ({h:.1} cm³ against the mesh's {m:.1} cm³), written to {}",
-            import.mesh.display()
-        );
-    }
     if import.mirrored {
         eprintln!("the left hand was mirrored onto the right robot hand (object mirrored too)");
     }
-    if let Some(z) = import.table_top_z_m {
-        eprintln!("table inferred at z = {z:.3} m: {}", import.scene.display());
-    }
-    if let Some(r) = &import.rest_correction {
-        let said = |corrected: bool| {
-            if corrected {
-                "moved there"
-            } else {
-                "kept: it does not rest there"
-            }
-        };
-        eprintln!(
-            "rest poses settled on the table: first {:.1} mm, {:.1}° ({}); last {:.1} mm, {:.1}° ({})",
-            r.start_mm,
-            r.start_deg,
-            said(r.start_corrected),
-            r.end_mm,
-            r.end_deg,
-            said(r.end_corrected)
-        );
-    }
+    report_placement(
+        given,
+        import.mesh_repair.as_ref(),
+        hull,
+        &import.mesh,
+        import.table_top_z_m,
+        &import.scene,
+        import.rest_correction.as_ref(),
+    );
     if let Some(r) = &import.refinement {
         eprintln!(
             "contact refinement: D_C {:.1} mm -> {:.2} mm{} (IK at its threshold on {}), {:.1} s",
@@ -298,4 +325,51 @@ fn report_keypoints(
         import.max_penetration_mm,
         import.time_s
     );
+}
+
+/// What an import did to the object's mesh and where it put it, on stderr.
+fn report_placement(
+    given: &std::path::Path,
+    repair: Option<&dexwarp::geometry::Repair>,
+    hull: Option<[f64; 2]>,
+    mesh: &std::path::Path,
+    table_top_z_m: Option<f64>,
+    scene: &std::path::Path,
+    rest: Option<&dexwarp::import::RestCorrection>,
+) {
+    if let Some(r) = repair {
+        eprintln!(
+            "object mesh {} repaired: {r}; written to {}",
+            given.display(),
+            mesh.display()
+        );
+    }
+    if let Some([h, m]) = hull {
+        eprintln!(
+            "object mesh {} replaced by its convex hull ({h:.1} cm³ against the mesh's {m:.1} cm³), written to {}",
+            given.display(),
+            mesh.display()
+        );
+    }
+    if let Some(z) = table_top_z_m {
+        eprintln!("table inferred at z = {z:.3} m: {}", scene.display());
+    }
+    if let Some(r) = rest {
+        let said = |corrected: bool| {
+            if corrected {
+                "moved there"
+            } else {
+                "kept: it does not rest there"
+            }
+        };
+        eprintln!(
+            "rest poses settled on the table: first {:.1} mm, {:.1}° ({}); last {:.1} mm, {:.1}° ({})",
+            r.start_mm,
+            r.start_deg,
+            said(r.start_corrected),
+            r.end_mm,
+            r.end_deg,
+            said(r.end_corrected)
+        );
+    }
 }
