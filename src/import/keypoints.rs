@@ -313,7 +313,8 @@ pub struct Bone {
     pub link: String,
 }
 
-/// Where each keypoint sits on the robot, and which link each recorded bone maps onto.
+/// Where each keypoint sits on the robot, which link each recorded bone maps onto, and the
+/// retargeting parameters that suit the hand.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct KeypointMap {
@@ -321,6 +322,11 @@ pub struct KeypointMap {
     pub keypoints: Vec<(String, String, [f64; 3])>,
     /// The recorded hand's bones and their links.
     pub bones: Vec<Bone>,
+    /// Retargeting parameters for this hand (absent fields keep their defaults), used when
+    /// `import` is given no `--retarget` file: a hand of other proportions than a person's
+    /// may need other weights (see `robots/maps/`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub retarget: Option<Params>,
 }
 
 impl KeypointMap {
@@ -372,7 +378,11 @@ impl KeypointMap {
                 link: "palm".into(),
             });
         }
-        KeypointMap { keypoints, bones }
+        KeypointMap {
+            keypoints,
+            bones,
+            retarget: None,
+        }
     }
 
     /// The map resolved against `robot`: every link must exist.

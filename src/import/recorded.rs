@@ -40,7 +40,8 @@ pub struct KeypointOptions {
     /// Refine the hand inside the contact segment with the warp's contact IK on the recorded
     /// correspondences (default on; see [`refine_contacts`]).
     pub refine: bool,
-    pub params: keypoints::Params,
+    /// Retargeting parameters (`--retarget`); `None`: the map's, else the defaults.
+    pub params: Option<keypoints::Params>,
 }
 
 /// What [`import_keypoints`] did.
@@ -64,6 +65,8 @@ pub struct KeypointImport {
     pub rest_correction: Option<RestCorrection>,
     /// What the contact refinement did (`None` when it was not asked for).
     pub refinement: Option<Refinement>,
+    /// The retargeting parameters used (`--retarget`, the map's, or the defaults).
+    pub retarget: keypoints::Params,
     /// First and last frame where the recorded hand touches the object.
     pub touch_frames: Option<[usize; 2]>,
     /// Warnings about the recording (object moving before the hand touches it, ...).
@@ -493,6 +496,14 @@ pub fn import_keypoints(
         Some(p) => crate::model::json::read_json::<KeypointMap>(p, limits)?,
         None => KeypointMap::human_hand(),
     };
+    let params = match (&options.params, &map.retarget, &options.keypoint_map) {
+        (Some(p), _, _) => p.clone(),
+        (None, Some(p), Some(path)) => {
+            p.check(path)?;
+            p.clone()
+        }
+        _ => keypoints::Params::default(),
+    };
     let mut rec = keypoints::read_keypoints_csv(frames, limits)?;
     let mesh = Mesh::load(&target.mesh, Vector3::repeat(1.0), limits)?;
     let (mut mesh, mesh_repair, hull_volumes) =
@@ -543,7 +554,7 @@ pub fn import_keypoints(
         .ok_or_else(|| Error::invalid(&mesh_path, "(mesh)", "has no triangles"))?;
     let ik = crate::hand::ik::Params {
         threshold_mm: 0.5,
-        margin_m: options.params.support_margin_m,
+        margin_m: params.support_margin_m,
         ..crate::hand::ik::Params::default()
     };
     let hand = keypoints::retarget(
@@ -554,7 +565,7 @@ pub fn import_keypoints(
         &geometry,
         &supports,
         &ik,
-        &options.params,
+        &params,
     )?;
     let mut warnings = Vec::new();
     let volume_ratio = crate::geometry::hull::object_shape(&mesh, &Default::default())
@@ -643,6 +654,7 @@ pub fn import_keypoints(
         table_top_z_m: table_top,
         rest_correction,
         refinement,
+        retarget: params.clone(),
         touch_frames: hand.touch,
         warnings,
         object_volume_ratio: volume_ratio,

@@ -243,7 +243,7 @@ fn other_mesh_formats_are_refused_with_how_to_convert() {
 }
 
 /// The community hands folder, or `None` with a message.
-fn community() -> Option<PathBuf> {
+pub(crate) fn community() -> Option<PathBuf> {
     let dir = std::env::var_os("DEXWARP_COMMUNITY_HANDS")
         .map(PathBuf::from)
         .unwrap_or_else(|| repo("../shared/community-hands"));

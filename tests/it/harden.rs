@@ -1198,5 +1198,37 @@ fn retargeting_parameters_are_read_strictly() {
         !ok && err.contains("smoothing_window") && err.contains("odd"),
         "{err}"
     );
+    // A keypoint map's own parameters are checked the same way, naming the map.
+    let map = dir.path().join("hand.keypoints.json");
+    std::fs::write(
+        &map,
+        r#"{"keypoints": [["wrist", "palm", [0, 0, 0]]], "bones": [], "retarget": {"smoothing_window": 4}}"#,
+    )
+    .unwrap();
+    let o = dexwarp(&[
+        "import",
+        "--keypoints",
+        s(&dir.path().join("frames.csv")),
+        "--fps",
+        "30",
+        "--robot",
+        s(&crate::fixtures::repo("robots/human_hand.urdf")),
+        "--keypoint-map",
+        s(&map),
+        "--mesh",
+        s(&crate::fixtures::repo("scenes/objects/small_box.obj")),
+        "--mass",
+        "0.1",
+        "--out",
+        s(&out),
+    ]);
+    let err = stderr(&o);
+    assert!(
+        !o.status.success()
+            && err.contains("hand.keypoints.json")
+            && err.contains("smoothing_window")
+            && err.contains("odd"),
+        "{err}"
+    );
     assert!(!out.exists() && !dir.path().join("out").exists());
 }

@@ -145,3 +145,74 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_a_grasp
         "object {onset} mm off its plan at first contact"
     );
 }
+
+/// The whole take onto the community Allegro (a right hand: the recording mirrored), with
+/// the keypoint map in `robots/maps/` and the retargeting parameters it carries: one
+/// command. The cleaned hand is out of the object, its pads on the recorded contacts, and the
+/// grasp carries the box through the lift and back under the ensemble's perturbations.
+#[test]
+fn the_shared_take_imports_onto_the_community_allegro_with_its_map() {
+    let Some(take) = take() else { return };
+    let Some(hands) = crate::hands::community() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("taco.demo.json");
+    let urdf = hands.join("allegro_hand/allegro_hand_right.urdf");
+    let map = repo("robots/maps/allegro_hand_right.keypoints.json");
+    let o = dexwarp(&[
+        "import",
+        "--keypoints",
+        take.join("frames.csv").to_str().unwrap(),
+        "--fps",
+        "30",
+        "--handedness",
+        "left",
+        "--robot",
+        urdf.to_str().unwrap(),
+        "--keypoint-map",
+        map.to_str().unwrap(),
+        "--mesh",
+        take.join("object.obj").to_str().unwrap(),
+        "--mass",
+        "0.2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let import = &json(&out.with_file_name("taco.import.json"))["import"];
+    // The map's parameters were used.
+    assert_eq!(
+        import["retarget"]["contact_weight"], 10,
+        "{}",
+        import["retarget"]
+    );
+    let deepest = import["per_frame"]["penetration_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d.as_f64().unwrap())
+        .fold(0.0, f64::max);
+    assert!(
+        deepest <= 2.0,
+        "the cleaned hand is {deepest} mm in the object"
+    );
+    let d_c = import["refinement"]["d_c_mm"].as_f64().unwrap();
+    assert!(d_c <= 5.0, "D_C {d_c} mm");
+    let val = tmp.path().join("val");
+    let o = dexwarp(&[
+        "validate",
+        out.to_str().unwrap(),
+        "--out",
+        val.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = json(&val.join("report.json"));
+    let ensemble = &report["physics"]["ensemble"];
+    let fraction = ensemble["pass_fraction"].as_f64().unwrap();
+    assert!(
+        fraction >= 0.75 && ensemble["decision"] == "keep",
+        "pass fraction {fraction}: {}",
+        report["physics"]["reasons"]
+    );
+}

@@ -145,9 +145,9 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
                     let params: dexwarp::import::keypoints::Params =
                         dexwarp::model::json::read_json(p, &limits)?;
                     params.check(p)?;
-                    params
+                    Some(params)
                 }
-                None => Default::default(),
+                None => None,
             },
         };
         let (import, hull) =
