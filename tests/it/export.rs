@@ -695,6 +695,34 @@ fn import_then_export_then_import_gives_the_same_trajectory() {
             "frame {i}: correspondences re-extracted from the float32 poses"
         );
     }
+    // Read back with the cleaning (the default), the episode gets the table inferred under
+    // its object and its import record; the already clean hand stays within the smoothing's
+    // reach of the recording.
+    let third = dir.path().join("cleaned.demo.json");
+    let mut args = vec!["import", "--lerobot", s(&ds), "--episode", "0"];
+    args.extend([
+        "--robot",
+        "ROBOT",
+        "--mesh",
+        "MESH",
+        "--mass",
+        "0.1",
+        "--out",
+        s(&third),
+    ]);
+    let o = run_import(args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c = Demo::load(&third, &limits).unwrap();
+    assert!(
+        c.scene
+            .as_deref()
+            .is_some_and(|p| p.ends_with("cleaned.scene.json"))
+    );
+    let record: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cleaned.import.json")).unwrap())
+            .unwrap();
+    let moved = record["import"]["residual_max_mm"].as_f64().unwrap();
+    assert!(moved < 1.0, "the clean recording moved {moved} mm");
 }
 
 /// Runs `scripts/export/readback.py` with `$DEXWARP_PYTHON` (a Python with pyarrow; `.ci/run`
