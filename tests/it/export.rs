@@ -652,27 +652,19 @@ fn import_then_export_then_import_gives_the_same_trajectory() {
     let o = dexwarp(&["export", s(&first), "--format", "lerobot", "--out", s(&ds)]);
     assert!(o.status.success(), "{}", stderr(&o));
     let second = dir.path().join("back.demo.json");
+    // Episode 0 of the dataset read back into `out`, with `extra` arguments.
+    let from_dataset = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["import", "--lerobot", s(&ds), "--episode", "0"];
+        args.extend(extra);
+        args.extend([
+            "--robot", "ROBOT", "--mesh", "MESH", "--mass", "0.1", "--out",
+        ]);
+        args.push(s(out));
+        let o = run_import(args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
     // The dataset holds the cleaned hand: read back as it is.
-    let mut args = vec![
-        "import",
-        "--lerobot",
-        s(&ds),
-        "--episode",
-        "0",
-        "--no-clean",
-    ];
-    args.extend([
-        "--robot",
-        "ROBOT",
-        "--mesh",
-        "MESH",
-        "--mass",
-        "0.1",
-        "--out",
-        s(&second),
-    ]);
-    let o = run_import(args);
-    assert!(o.status.success(), "{}", stderr(&o));
+    from_dataset(&second, &["--no-clean"]);
     let b = Demo::load(&second, &limits).unwrap();
     assert_eq!(b.name, "rec");
     assert_eq!(b.fps, a.fps);
@@ -699,19 +691,7 @@ fn import_then_export_then_import_gives_the_same_trajectory() {
     // its object and its import record; the already clean hand stays within the smoothing's
     // reach of the recording.
     let third = dir.path().join("cleaned.demo.json");
-    let mut args = vec!["import", "--lerobot", s(&ds), "--episode", "0"];
-    args.extend([
-        "--robot",
-        "ROBOT",
-        "--mesh",
-        "MESH",
-        "--mass",
-        "0.1",
-        "--out",
-        s(&third),
-    ]);
-    let o = run_import(args);
-    assert!(o.status.success(), "{}", stderr(&o));
+    from_dataset(&third, &[]);
     let c = Demo::load(&third, &limits).unwrap();
     assert!(
         c.scene

@@ -1163,8 +1163,9 @@ fn recordings_whose_clock_runs_backwards_are_refused_and_inside_out_meshes_turne
 fn retargeting_parameters_are_read_strictly() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out/rec.demo.json");
-    let run = |json: &str| {
-        let params = dir.path().join("retarget.json");
+    // The import with `json` written to `file` and given as `flag`.
+    let run_with = |flag: &str, file: &str, json: &str| {
+        let params = dir.path().join(file);
         std::fs::write(&params, json).unwrap();
         let o = dexwarp(&[
             "import",
@@ -1180,11 +1181,12 @@ fn retargeting_parameters_are_read_strictly() {
             "0.1",
             "--out",
             s(&out),
-            "--retarget",
+            flag,
             s(&params),
         ]);
         (o.status.success(), stderr(&o))
     };
+    let run = |json: &str| run_with("--retarget", "retarget.json", json);
     let (ok, err) = run(r#"{"regrasp_m": 20}"#);
     assert!(!ok && err.contains("retarget.json"), "{err}");
     assert!(err.contains("did you mean `regrasp_mm`"), "{err}");
@@ -1199,33 +1201,13 @@ fn retargeting_parameters_are_read_strictly() {
         "{err}"
     );
     // A keypoint map's own parameters are checked the same way, naming the map.
-    let map = dir.path().join("hand.keypoints.json");
-    std::fs::write(
-        &map,
-        r#"{"keypoints": [["wrist", "palm", [0, 0, 0]]], "bones": [], "retarget": {"smoothing_window": 4}}"#,
-    )
-    .unwrap();
-    let o = dexwarp(&[
-        "import",
-        "--keypoints",
-        s(&dir.path().join("frames.csv")),
-        "--fps",
-        "30",
-        "--robot",
-        s(&crate::fixtures::repo("robots/human_hand.urdf")),
+    let (ok, err) = run_with(
         "--keypoint-map",
-        s(&map),
-        "--mesh",
-        s(&crate::fixtures::repo("scenes/objects/small_box.obj")),
-        "--mass",
-        "0.1",
-        "--out",
-        s(&out),
-    ]);
-    let err = stderr(&o);
+        "hand.keypoints.json",
+        r#"{"keypoints": [["wrist", "palm", [0, 0, 0]]], "bones": [], "retarget": {"smoothing_window": 4}}"#,
+    );
     assert!(
-        !o.status.success()
-            && err.contains("hand.keypoints.json")
+        !ok && err.contains("hand.keypoints.json")
             && err.contains("smoothing_window")
             && err.contains("odd"),
         "{err}"

@@ -32,6 +32,27 @@ fn json(p: &std::path::Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }
 
+/// `validate` of the demonstration `demo` into `dir`; its report, after checking that the
+/// ensemble keeps it with a pass fraction of at least 0.75.
+fn validate_keeps(demo: &std::path::Path, dir: &std::path::Path) -> serde_json::Value {
+    let o = dexwarp(&[
+        "validate",
+        demo.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = json(&dir.join("report.json"));
+    let ensemble = &report["physics"]["ensemble"];
+    let fraction = ensemble["pass_fraction"].as_f64().unwrap();
+    assert!(
+        fraction >= 0.75 && ensemble["decision"] == "keep",
+        "pass fraction {fraction}: {}",
+        report["physics"]["reasons"]
+    );
+    report
+}
+
 #[test]
 fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_a_grasp_that_holds() {
     let Some(take) = take() else { return };
@@ -115,25 +136,10 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_a_grasp
     assert!((1.0..15.0).contains(&moved), "{rest}");
     assert_eq!(rest["end_corrected"], false, "{rest}");
     // The repaired mesh is closed: validate replays it as its decomposition, not its hull,
-    // and finds the scene from the demonstration.
-    let val = tmp.path().join("val");
-    let o = dexwarp(&[
-        "validate",
-        out.to_str().unwrap(),
-        "--out",
-        val.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let report = json(&val.join("report.json"));
+    // and finds the scene from the demonstration; the grasp holds through the start of the
+    // lift, under the ensemble's perturbations.
+    let report = validate_keeps(&out, &tmp.path().join("val"));
     assert_eq!(report["physics"]["replay"]["object_shape"], "decomposition");
-    // The grasp holds through the start of the lift, under the ensemble's perturbations.
-    let ensemble = &report["physics"]["ensemble"];
-    let fraction = ensemble["pass_fraction"].as_f64().unwrap();
-    assert!(
-        fraction >= 0.75 && ensemble["decision"] == "keep",
-        "pass fraction {fraction}: {}",
-        report["physics"]["reasons"]
-    );
     // Settled, the object waits for the hand where the replay put it: at the first contact
     // it is within 5 mm of its plan (3.4-3.8 mm: the hand closes from 5 mm off onto its
     // contacts in that frame; 7.5 mm before the contact when the recorded tilt was kept).
@@ -199,20 +205,5 @@ fn the_shared_take_imports_onto_the_community_allegro_with_its_map() {
     );
     let d_c = import["refinement"]["d_c_mm"].as_f64().unwrap();
     assert!(d_c <= 5.0, "D_C {d_c} mm");
-    let val = tmp.path().join("val");
-    let o = dexwarp(&[
-        "validate",
-        out.to_str().unwrap(),
-        "--out",
-        val.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let report = json(&val.join("report.json"));
-    let ensemble = &report["physics"]["ensemble"];
-    let fraction = ensemble["pass_fraction"].as_f64().unwrap();
-    assert!(
-        fraction >= 0.75 && ensemble["decision"] == "keep",
-        "pass fraction {fraction}: {}",
-        report["physics"]["reasons"]
-    );
+    validate_keeps(&out, &tmp.path().join("val"));
 }
