@@ -32,10 +32,13 @@ use std::time::Instant;
 use nalgebra::{Isometry3, Point3, Quaternion, UnitQuaternion, Vector3};
 use serde::Serialize;
 
-use super::recorded::{Placing, RestCorrection, place_object, solid_object};
+use super::recorded::{
+    Placed, Placement, Placing, depths, moved_before_touch, place_object, solid_object,
+    write_record,
+};
 use super::{Pose, Target, extract_contacts, finish_in};
+use crate::geometry::Mesh;
 use crate::geometry::shape::CollisionShape;
-use crate::geometry::{Mesh, Repair};
 use crate::hand::ik::{IkSolver, ResolvedContact};
 use crate::model::{Contact, Demo};
 use crate::robot::{LinkId, Robot};
@@ -83,22 +86,15 @@ pub struct RobotImport {
     #[serde(skip)]
     pub demo: Demo,
     pub recording: PathBuf,
-    /// What the repair of the object mesh changed (`None`: it was closed).
-    pub mesh_repair: Option<Repair>,
-    /// The object mesh the demonstration names.
-    pub mesh: PathBuf,
-    /// The scene the demonstration names, and the table's top height when inferred [m].
-    pub scene: PathBuf,
-    pub table_top_z_m: Option<f64>,
-    pub rest_correction: Option<RestCorrection>,
+    /// The object's mesh and scene.
+    #[serde(flatten)]
+    pub placement: Placement,
     pub smoothing_window: usize,
     /// Frames on which the hand was solved out of the object or the table.
     pub frames_moved: usize,
     /// First and last frame with correspondences.
     pub contact_frames: Option<[usize; 2]>,
     pub warnings: Vec<String>,
-    /// The simulated object's volume over its mesh's.
-    pub object_volume_ratio: Option<f64>,
     /// How far the cleaned hand's surface samples are from the recorded hand's (smoothing
     /// and the way out together) [mm]: the mean over frames of each frame's mean, and the
     /// largest.
@@ -107,8 +103,6 @@ pub struct RobotImport {
     /// Deepest the recorded and the cleaned hand are in the object over all frames [mm].
     pub max_penetration_recorded_mm: f64,
     pub max_penetration_mm: f64,
-    /// The hull's and the mesh's volumes [cm³] when the hull stands in for the mesh.
-    pub hull_volumes_cm3: Option<[f64; 2]>,
     /// Wall time of the import [s].
     pub time_s: f64,
     pub per_frame: PerFrame,
@@ -303,18 +297,6 @@ fn residuals(
         .unzip()
 }
 
-/// Per frame, how deep the hand is in the object [mm].
-fn depths(robot: &Robot, geometry: &ObjectGeometry, poses: &[Pose]) -> Vec<f64> {
-    let mut links = robot.new_link_poses();
-    poses
-        .iter()
-        .map(|(o, w, q)| {
-            robot.forward_kinematics(w, q, &mut links);
-            crate::synth::proximity::penetration(robot, &links, geometry, o).depth_m * 1e3
-        })
-        .collect()
-}
-
 /// Cleans a recorded robot hand (see the module docs), writes the demonstration with its
 /// scene and `NAME.import.json`, and reads it back.
 pub(crate) fn clean(
@@ -332,23 +314,17 @@ pub(crate) fn clean(
         return Err(Error::invalid(source.path, "(frames)", "has no frames"));
     }
     let mesh = Mesh::load(&target.mesh, Vector3::repeat(1.0), limits)?;
-    let (mesh, mesh_repair, hull_volumes) =
-        solid_object(&target.mesh, mesh, options.hull_fallback)?;
-    let name = target.name.clone().unwrap_or_else(|| {
-        super::recorded::beside(&target.out, "x")
-            .file_stem()
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or_else(|| "recording".into())
-    });
+    let (mesh, repair, hull_volumes_cm3) = solid_object(&target.mesh, mesh, options.hull_fallback)?;
     let mut object: Vec<Isometry3<f64>> = poses.iter().map(|p| p.0).collect();
     let placed = place_object(
         Placing {
             recording: source.path,
             columns: source.columns,
             mesh,
-            write_mesh: mesh_repair.is_some() || hull_volumes.is_some(),
+            repair,
+            hull_volumes_cm3,
+            mirrored: false,
             scene: options.scene.as_deref(),
-            name: &name,
             hand_z0: poses[0].1.translation.z,
         },
         &mut object,
@@ -360,63 +336,53 @@ pub(crate) fn clean(
         p.0 = *o;
         p.1 = world * p.1;
     }
-    let geometry = ObjectGeometry::new(placed.mesh.clone())
-        .ok_or_else(|| Error::invalid(&placed.mesh_path, "(mesh)", "has no triangles"))?;
+    let Placed {
+        geometry,
+        supports,
+        record: placement,
+        mut warnings,
+        ..
+    } = placed;
+    let frames = |poses: &[Pose]| depths(robot, &geometry, poses.iter().map(|(o, w, q)| (o, w, q)));
     let recorded = poses.clone();
-    let recorded_depth = depths(robot, &geometry, &poses);
+    let recorded_depth = frames(&poses);
     smooth_hand(robot, &mut poses, options.smoothing_window);
     let samples = crate::synth::contacts::hand_samples(robot, SAMPLE_SPACING_M);
-    let solved = push_out(robot, &samples, &geometry, &placed.supports, &mut poses);
+    let solved = push_out(robot, &samples, &geometry, &supports, &mut poses);
     let (res_mean, res_max) = residuals(robot, &samples, &recorded, &poses);
+    let depth = frames(&poses);
     let contacts = contacts.unwrap_or_else(|| extract_contacts(robot, &geometry, &poses));
     let with: Vec<usize> = (0..contacts.len())
         .filter(|&t| !contacts[t].is_empty())
         .collect();
     let contact_frames = with.first().map(|&a| [a, *with.last().unwrap_or(&a)]);
-    let mut warnings = Vec::new();
-    let volume_ratio = crate::geometry::hull::object_shape(&placed.mesh, &Default::default())
-        .ok()
-        .and_then(|(s, _)| s.volume_ratio);
-    warnings.extend(crate::geometry::hull::fuller_than_mesh(volume_ratio));
-    if let Some([a, b]) = super::recorded::moved_before_touch(&object, contact_frames) {
-        warnings.push(format!(
-            "the object moves more than 5 mm from its first pose on frames {a}-{b}, before the hand touches it (first contact: {}); the replay cannot reproduce that",
-            contact_frames.map_or("never".into(), |t| format!("frame {}", t[0]))
-        ));
-    }
+    warnings.extend(moved_before_touch(&object, contact_frames));
     let target = Target {
-        mesh: placed.mesh_path.clone(),
+        mesh: placement.mesh.clone(),
         ..target.clone()
     };
     let demo = finish_in(
         &target,
         robot,
         fps,
-        poses.clone(),
+        poses,
         Some(contacts),
-        Some(placed.scene_path.clone()),
+        Some(placement.scene.clone()),
         limits,
     )?;
-    let depth = depths(robot, &geometry, &poses);
     let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
     let import = RobotImport {
         demo,
         recording: source.path.to_path_buf(),
-        mesh_repair,
-        mesh: placed.mesh_path,
-        scene: placed.scene_path,
-        table_top_z_m: placed.table_top,
-        rest_correction: placed.rest_correction,
+        placement,
         smoothing_window: options.smoothing_window,
         frames_moved: solved.iter().filter(|s| **s).count(),
         contact_frames,
         warnings,
-        object_volume_ratio: volume_ratio,
         residual_mean_mm: res_mean.iter().sum::<f64>() / res_mean.len() as f64,
         residual_max_mm: max(&res_max),
         max_penetration_recorded_mm: max(&recorded_depth),
         max_penetration_mm: max(&depth),
-        hull_volumes_cm3: hull_volumes,
         time_s: clock.elapsed().as_secs_f64(),
         per_frame: PerFrame {
             residual_mean_mm: res_mean,
@@ -425,13 +391,7 @@ pub(crate) fn clean(
             penetration_mm: depth,
         },
     };
-    crate::model::json::write_json_atomic(
-        &super::recorded::beside(&target.out, "import.json"),
-        &serde_json::json!({
-            "format": "dexwarp.import/1",
-            "import": &import,
-        }),
-    )?;
+    write_record(&target.out, &import)?;
     Ok(import)
 }
 

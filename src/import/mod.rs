@@ -39,7 +39,7 @@ pub mod keypoints;
 mod recorded;
 
 pub use clean::{CleanOptions, RobotImport};
-pub use recorded::{KeypointImport, KeypointOptions, RestCorrection, import_keypoints};
+pub use recorded::{KeypointImport, KeypointOptions, Placement, RestCorrection, import_keypoints};
 
 use crate::export::lerobot::{self, Column};
 use crate::geometry::Mesh;

@@ -53,16 +53,9 @@ pub struct KeypointImport {
     pub handedness: Handedness,
     /// The recording was mirrored (left hand onto a right robot hand).
     pub mirrored: bool,
-    /// What the repair of the object mesh changed (`None`: it was closed).
-    pub mesh_repair: Option<Repair>,
-    /// The object mesh the demonstration names.
-    pub mesh: PathBuf,
-    /// The scene the demonstration names, and the table's top height when inferred [m].
-    pub scene: PathBuf,
-    pub table_top_z_m: Option<f64>,
-    /// How far the object's recorded rest poses were moved to where it settles on the
-    /// supports (see [`settle_rest_poses`]); `None` without supports.
-    pub rest_correction: Option<RestCorrection>,
+    /// The object's mesh and scene.
+    #[serde(flatten)]
+    pub placement: Placement,
     /// What the contact refinement did (`None` when it was not asked for).
     pub refinement: Option<Refinement>,
     /// The retargeting parameters used (`--retarget`, the map's, or the defaults).
@@ -71,9 +64,6 @@ pub struct KeypointImport {
     pub touch_frames: Option<[usize; 2]>,
     /// Warnings about the recording (object moving before the hand touches it, ...).
     pub warnings: Vec<String>,
-    /// The simulated object's volume over its mesh's (see
-    /// [`crate::geometry::hull::ObjectShape::volume_ratio`]).
-    pub object_volume_ratio: Option<f64>,
     /// Keypoint residuals of the cleaned hand [mm], mean and largest over frames.
     pub residual_mean_mm: f64,
     pub residual_max_mm: f64,
@@ -170,18 +160,22 @@ fn table_scene(name: &str, first: &Isometry3<f64>, top: f64) -> SceneFile {
     }
 }
 
-/// Frames where the object has moved more than 5 mm from its first pose before the first
-/// frame the hand touches it.
+/// A warning when the object moves more than 5 mm from its first pose before the first
+/// frame the hand touches it, naming those frames.
 pub(crate) fn moved_before_touch(
     object: &[Isometry3<f64>],
     touch: Option<[usize; 2]>,
-) -> Option<[usize; 2]> {
+) -> Option<String> {
     let first = touch.map_or(object.len(), |t| t[0]);
     let start = object[0].translation.vector;
     let moved: Vec<usize> = (0..first)
         .filter(|&t| (object[t].translation.vector - start).norm() > 0.005)
         .collect();
-    Some([*moved.first()?, *moved.last()?])
+    let (a, b) = (moved.first()?, moved.last()?);
+    Some(format!(
+        "the object moves more than 5 mm from its first pose on frames {a}-{b}, before the hand touches it (first touch: {}); the replay cannot reproduce that",
+        touch.map_or("never".into(), |t| format!("frame {}", t[0]))
+    ))
 }
 
 /// What the contact refinement did: D_C [mm] before and after, and the share of the contact
@@ -384,34 +378,64 @@ pub(crate) struct Placing<'a> {
     /// The recording and its names of the object's pose columns and of the hand's height.
     pub recording: &'a Path,
     pub columns: [&'a str; 2],
-    /// The object mesh as the demonstration will name it (made solid, mirrored), and whether
-    /// it must be written beside the demonstration (it is not the input file).
+    /// The object mesh as the demonstration will name it, what made it solid
+    /// ([`solid_object`]), and whether it was mirrored: a mesh repaired, replaced by its hull
+    /// or mirrored is written beside the demonstration, which names it instead of the input.
     pub mesh: Mesh,
-    pub write_mesh: bool,
+    pub repair: Option<Repair>,
+    pub hull_volumes_cm3: Option<[f64; 2]>,
+    pub mirrored: bool,
     /// A scene given with `--scene`, instead of the inferred table.
     pub scene: Option<&'a Path>,
-    /// The demonstration's name (for the inferred scene's).
-    pub name: &'a str,
     /// The hand's height at the first frame [m] (it must be above the inferred table).
     pub hand_z0: f64,
+}
+
+/// Where an import put the object: its mesh and scene, as the import record says them.
+#[derive(Clone, Debug, Serialize)]
+pub struct Placement {
+    /// What the repair of the object mesh changed (`None`: it was closed).
+    pub mesh_repair: Option<Repair>,
+    /// The hull's and the mesh's volumes [cm³] when the hull stands in for an open mesh.
+    pub hull_volumes_cm3: Option<[f64; 2]>,
+    /// The object mesh the demonstration names.
+    pub mesh: PathBuf,
+    /// The scene the demonstration names, and the table's top height when inferred [m].
+    pub scene: PathBuf,
+    pub table_top_z_m: Option<f64>,
+    /// How far the object's recorded rest poses were moved to where it settles on the
+    /// supports (see [`settle_rest_poses`]); `None` without supports.
+    pub rest_correction: Option<RestCorrection>,
+    /// The simulated object's volume over its mesh's (see
+    /// [`crate::geometry::hull::ObjectShape::volume_ratio`]).
+    pub object_volume_ratio: Option<f64>,
 }
 
 /// The object in its scene, as [`place_object`] left it.
 pub(crate) struct Placed {
     pub mesh: Mesh,
-    pub mesh_path: PathBuf,
-    pub scene_path: PathBuf,
-    /// The inferred table's top [m] (`None`: a scene was given).
-    pub table_top: Option<f64>,
+    pub geometry: ObjectGeometry,
     pub supports: Vec<crate::geometry::shape::CollisionShape>,
-    pub rest_correction: Option<RestCorrection>,
     /// Per frame, the rest correction as a motion of the world ([`settle_rest_poses`]): the
     /// caller moves the hand by it.
     pub world: Vec<Isometry3<f64>>,
+    pub record: Placement,
+    /// Warnings about the object (a decomposition fuller than the mesh).
+    pub warnings: Vec<String>,
+}
+
+/// The demonstration's name: `--name`, else the output file's stem.
+pub(crate) fn demo_name(target: &Target) -> String {
+    target.name.clone().unwrap_or_else(|| {
+        beside(&target.out, "x")
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "recording".into())
+    })
 }
 
 /// Puts the recorded object in a scene: writes the mesh beside the demonstration when it is
-/// not the input's, names the given scene or writes the table inferred under the object
+/// not the input's (see [`Placing::mesh`]), names the given scene or writes the table inferred under the object
 /// ([`infer_table`]), and settles the object's rest poses on the supports
 /// ([`settle_rest_poses`], `object` corrected in place).
 pub(crate) fn place_object(
@@ -428,7 +452,9 @@ pub(crate) fn place_object(
         std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
     }
     let mut mesh = placing.mesh;
-    let mesh_path = if placing.write_mesh {
+    let rewritten =
+        placing.mirrored || placing.repair.is_some() || placing.hull_volumes_cm3.is_some();
+    let mesh_path = if rewritten {
         let p = beside(out, "object.obj");
         crate::model::json::write_atomic(&p, mesh.to_obj_string().as_bytes())?;
         // What every later command reads back.
@@ -448,7 +474,8 @@ pub(crate) fn place_object(
                 &mesh,
             )?;
             let p = beside(out, "scene.json");
-            crate::model::json::write_json_atomic(&p, &table_scene(placing.name, &object[0], top))?;
+            let scene = table_scene(&demo_name(target), &object[0], top);
+            crate::model::json::write_json_atomic(&p, &scene)?;
             (p, Some(top))
         }
     };
@@ -465,14 +492,28 @@ pub(crate) fn place_object(
         let (r, w) = settle_rest_poses(object, robot, &mesh_path, &mesh, target.mass, &supports)?;
         (Some(r), w)
     };
+    let geometry = ObjectGeometry::new(mesh.clone())
+        .ok_or_else(|| Error::invalid(&mesh_path, "(mesh)", "has no triangles"))?;
+    let volume_ratio = crate::geometry::hull::object_shape(&mesh, &Default::default())
+        .ok()
+        .and_then(|(s, _)| s.volume_ratio);
     Ok(Placed {
         mesh,
-        mesh_path,
-        scene_path,
-        table_top,
+        geometry,
         supports,
-        rest_correction,
         world,
+        record: Placement {
+            mesh_repair: placing.repair,
+            hull_volumes_cm3: placing.hull_volumes_cm3,
+            mesh: mesh_path,
+            scene: scene_path,
+            table_top_z_m: table_top,
+            rest_correction,
+            object_volume_ratio: volume_ratio,
+        },
+        warnings: crate::geometry::hull::fuller_than_mesh(volume_ratio)
+            .into_iter()
+            .collect(),
     })
 }
 
@@ -482,7 +523,7 @@ pub fn import_keypoints(
     options: &KeypointOptions,
     target: &Target,
     limits: &Limits,
-) -> Result<(KeypointImport, Option<[f64; 2]>)> {
+) -> Result<KeypointImport> {
     let clock = Instant::now();
     crate::model::json::FieldCheck::new(frames).in_range(
         || "--fps".into(),
@@ -506,29 +547,23 @@ pub fn import_keypoints(
     };
     let mut rec = keypoints::read_keypoints_csv(frames, limits)?;
     let mesh = Mesh::load(&target.mesh, Vector3::repeat(1.0), limits)?;
-    let (mut mesh, mesh_repair, hull_volumes) =
+    let (mut mesh, mesh_repair, hull_volumes_cm3) =
         solid_object(&target.mesh, mesh, options.hull_fallback)?;
     let mirrored = options.handedness == Handedness::Left;
     if mirrored {
         rec.mirror(rec.object[0].translation.x);
         mesh = keypoints::mirror_mesh(&mesh);
     }
-    let out = &target.out;
-    let name = target.name.clone().unwrap_or_else(|| {
-        beside(out, "x")
-            .file_stem()
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or_else(|| "recording".into())
-    });
     let hand_z0 = rec.keypoints[0][0].z;
     let placed = place_object(
         Placing {
             recording: frames,
             columns: ["obj_x..obj_qz", "wrist_z"],
             mesh,
-            write_mesh: mirrored || mesh_repair.is_some(),
+            repair: mesh_repair,
+            hull_volumes_cm3,
+            mirrored,
             scene: options.scene.as_deref(),
-            name: &name,
             hand_z0,
         },
         &mut rec.object,
@@ -543,15 +578,12 @@ pub fn import_keypoints(
     }
     let Placed {
         mesh,
-        mesh_path,
-        scene_path,
-        table_top,
+        geometry,
         supports,
-        rest_correction,
+        record: placement,
+        mut warnings,
         ..
     } = placed;
-    let geometry = ObjectGeometry::new(mesh.clone())
-        .ok_or_else(|| Error::invalid(&mesh_path, "(mesh)", "has no triangles"))?;
     let ik = crate::hand::ik::Params {
         threshold_mm: 0.5,
         margin_m: params.support_margin_m,
@@ -567,17 +599,7 @@ pub fn import_keypoints(
         &ik,
         &params,
     )?;
-    let mut warnings = Vec::new();
-    let volume_ratio = crate::geometry::hull::object_shape(&mesh, &Default::default())
-        .ok()
-        .and_then(|(s, _)| s.volume_ratio);
-    warnings.extend(crate::geometry::hull::fuller_than_mesh(volume_ratio));
-    if let Some([a, b]) = moved_before_touch(&rec.object, hand.touch) {
-        warnings.push(format!(
-            "the object moves more than 5 mm from its first pose on frames {a}-{b}, before the recorded hand touches it (first touch: {}); the replay cannot reproduce that",
-            hand.touch.map_or("never".into(), |t| format!("frame {}", t[0]))
-        ));
-    }
+    warnings.extend(moved_before_touch(&rec.object, hand.touch));
     if hand.touch.is_none() {
         warnings.push(
             "the recorded hand never touches the object: the demonstration has no contact segment"
@@ -591,7 +613,7 @@ pub fn import_keypoints(
         .map(|(o, (w, q))| (*o, *w, q.clone()))
         .collect();
     let target = Target {
-        mesh: mesh_path.clone(),
+        mesh: placement.mesh.clone(),
         object_name: Some(match (&target.object_name, mirrored) {
             (Some(n), _) => n.clone(),
             (None, m) => {
@@ -607,7 +629,7 @@ pub fn import_keypoints(
                 }
             }
         }),
-        name: Some(name),
+        name: Some(demo_name(target)),
         ..target.clone()
     };
     let demo = finish_in(
@@ -616,13 +638,13 @@ pub fn import_keypoints(
         options.fps,
         poses,
         Some(hand.contacts.clone()),
-        Some(scene_path.clone()),
+        Some(placement.scene.clone()),
         limits,
     )?;
     // Refined where the recording touches; a refinement that cannot run leaves the
     // retargeted hand and says why.
     let (demo, refinement) = if options.refine && hand.touch.is_some() {
-        match refine_contacts(demo.clone(), &robot, &mesh, &scene_path, limits) {
+        match refine_contacts(demo.clone(), &robot, &mesh, &placement.scene, limits) {
             Ok((d, r)) => (d, Some(r)),
             Err(e) => {
                 warnings.push(format!("contact refinement not applied: {e}"));
@@ -632,32 +654,22 @@ pub fn import_keypoints(
     } else {
         (demo, None)
     };
-    let mut link_poses = robot.new_link_poses();
-    let penetration_mm: Vec<f64> = demo
-        .frames
-        .iter()
-        .map(|f| {
-            robot.forward_kinematics(&f.wrist, &f.joints, &mut link_poses);
-            crate::synth::proximity::penetration(&robot, &link_poses, &geometry, &f.object).depth_m
-                * 1e3
-        })
-        .collect();
+    let penetration_mm = depths(
+        &robot,
+        &geometry,
+        demo.frames.iter().map(|f| (&f.object, &f.wrist, &f.joints)),
+    );
     let r = &hand.residuals;
     let import = KeypointImport {
         demo,
         recording: frames.to_path_buf(),
         handedness: options.handedness,
         mirrored,
-        mesh_repair,
-        mesh: mesh_path,
-        scene: scene_path,
-        table_top_z_m: table_top,
-        rest_correction,
+        placement,
         refinement,
         retarget: params.clone(),
         touch_frames: hand.touch,
         warnings,
-        object_volume_ratio: volume_ratio,
         residual_mean_mm: r.mean_mm.iter().sum::<f64>() / r.mean_mm.len().max(1) as f64,
         residual_max_mm: r.max_mm.iter().copied().fold(0.0, f64::max),
         max_penetration_mm: penetration_mm.iter().copied().fold(0.0, f64::max),
@@ -669,12 +681,32 @@ pub fn import_keypoints(
             penetration_mm,
         },
     };
+    write_record(&target.out, &import)?;
+    Ok(import)
+}
+
+/// Writes what an import did as `NAME.import.json` (`dexwarp.import/1`) beside `out`.
+pub(crate) fn write_record(out: &Path, import: &impl Serialize) -> Result<()> {
     crate::model::json::write_json_atomic(
         &beside(out, "import.json"),
         &serde_json::json!({
             "format": "dexwarp.import/1",
-            "import": &import,
+            "import": import,
         }),
-    )?;
-    Ok((import, hull_volumes))
+    )
+}
+
+/// Per frame (object pose, wrist pose, joints), how deep the hand is in the object [mm].
+pub(crate) fn depths<'a>(
+    robot: &Robot,
+    geometry: &ObjectGeometry,
+    frames: impl Iterator<Item = (&'a Isometry3<f64>, &'a Isometry3<f64>, &'a Vec<f64>)>,
+) -> Vec<f64> {
+    let mut links = robot.new_link_poses();
+    frames
+        .map(|(o, w, q)| {
+            robot.forward_kinematics(w, q, &mut links);
+            crate::synth::proximity::penetration(robot, &links, geometry, o).depth_m * 1e3
+        })
+        .collect()
 }

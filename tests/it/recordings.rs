@@ -32,6 +32,46 @@ fn json(p: &std::path::Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }
 
+/// `import --keypoints` of the take's `frames` (a left hand, 30 fps, 0.2 kg) onto `robot`,
+/// with `extra` arguments, into `out`; it must succeed and its stderr is returned.
+fn import_take(
+    take: &std::path::Path,
+    frames: &std::path::Path,
+    robot: &std::path::Path,
+    extra: &[&str],
+    out: &std::path::Path,
+) -> String {
+    let mut args = vec![
+        "import",
+        "--keypoints",
+        frames.to_str().unwrap(),
+        "--fps",
+        "30",
+        "--handedness",
+        "left",
+        "--robot",
+        robot.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    let mesh = take.join("object.obj");
+    args.extend(["--mesh", mesh.to_str().unwrap(), "--mass", "0.2"]);
+    args.extend(["--out", out.to_str().unwrap()]);
+    let o = dexwarp(&args);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    err
+}
+
+/// The deepest the import record says the cleaned hand is in the object, over its frames [mm].
+fn deepest(import: &serde_json::Value) -> f64 {
+    import["per_frame"]["penetration_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d.as_f64().unwrap())
+        .fold(0.0, f64::max)
+}
+
 /// `validate` of the demonstration `demo` into `dir`; its report, after checking that the
 /// ensemble keeps it with a pass fraction of at least 0.75.
 fn validate_keeps(demo: &std::path::Path, dir: &std::path::Path) -> serde_json::Value {
@@ -63,25 +103,7 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_a_grasp
     let frames = tmp.path().join("frames.csv");
     std::fs::write(&frames, head.join("\n") + "\n").unwrap();
     let out = tmp.path().join("out/taco.demo.json");
-    let o = dexwarp(&[
-        "import",
-        "--keypoints",
-        frames.to_str().unwrap(),
-        "--fps",
-        "30",
-        "--handedness",
-        "left",
-        "--robot",
-        repo("robots/human_hand.urdf").to_str().unwrap(),
-        "--mesh",
-        take.join("object.obj").to_str().unwrap(),
-        "--mass",
-        "0.2",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let err = stderr(&o);
-    assert!(o.status.success(), "{err}");
+    let err = import_take(&take, &frames, &repo("robots/human_hand.urdf"), &[], &out);
     // The open mesh as shipped: three zero-volume slivers, removed and said.
     assert!(
         err.contains("object.obj repaired: removed 3 zero-volume slivers"),
@@ -112,12 +134,14 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_a_grasp
     let import = &json(&out.with_file_name("taco.import.json"))["import"];
     let first = import["touch_frames"][0].as_u64().unwrap();
     assert!((15..=21).contains(&first), "first touch at {first}");
-    let depth = import["per_frame"]["penetration_mm"].as_array().unwrap();
-    assert_eq!(depth.len(), 60);
-    let deepest = depth
-        .iter()
-        .map(|d| d.as_f64().unwrap())
-        .fold(0.0, f64::max);
+    assert_eq!(
+        import["per_frame"]["penetration_mm"]
+            .as_array()
+            .unwrap()
+            .len(),
+        60
+    );
+    let deepest = deepest(import);
     assert!(
         deepest <= 2.0,
         "the cleaned hand is {deepest} mm in the object"
@@ -166,26 +190,8 @@ fn the_shared_take_imports_onto_the_community_allegro_with_its_map() {
     let out = tmp.path().join("taco.demo.json");
     let urdf = hands.join("allegro_hand/allegro_hand_right.urdf");
     let map = repo("robots/maps/allegro_hand_right.keypoints.json");
-    let o = dexwarp(&[
-        "import",
-        "--keypoints",
-        take.join("frames.csv").to_str().unwrap(),
-        "--fps",
-        "30",
-        "--handedness",
-        "left",
-        "--robot",
-        urdf.to_str().unwrap(),
-        "--keypoint-map",
-        map.to_str().unwrap(),
-        "--mesh",
-        take.join("object.obj").to_str().unwrap(),
-        "--mass",
-        "0.2",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let map = ["--keypoint-map", map.to_str().unwrap()];
+    import_take(&take, &take.join("frames.csv"), &urdf, &map, &out);
     let import = &json(&out.with_file_name("taco.import.json"))["import"];
     // The map's parameters were used.
     assert_eq!(
@@ -193,12 +199,7 @@ fn the_shared_take_imports_onto_the_community_allegro_with_its_map() {
         "{}",
         import["retarget"]
     );
-    let deepest = import["per_frame"]["penetration_mm"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|d| d.as_f64().unwrap())
-        .fold(0.0, f64::max);
+    let deepest = deepest(import);
     assert!(
         deepest <= 2.0,
         "the cleaned hand is {deepest} mm in the object"

@@ -150,9 +150,8 @@ pub fn run(args: ImportArgs, limits: Limits) -> Result<()> {
                 None => None,
             },
         };
-        let (import, hull) =
-            dexwarp::import::import_keypoints(&frames, &options, &target, &limits)?;
-        report_keypoints(&out, &target.mesh, &import, hull);
+        let import = dexwarp::import::import_keypoints(&frames, &options, &target, &limits)?;
+        report_keypoints(&out, &target.mesh, &import);
         return Ok(());
     }
     if hull_fallback && no_clean {
@@ -229,15 +228,7 @@ fn report_mesh_as_given(mesh_path: &std::path::Path, limits: &dexwarp::Limits) {
 
 /// What the cleaning of a `--csv` or `--lerobot` import did, on stderr.
 fn report_cleaned(given: &std::path::Path, import: &dexwarp::import::RobotImport) {
-    report_placement(
-        given,
-        import.mesh_repair.as_ref(),
-        import.hull_volumes_cm3,
-        &import.mesh,
-        import.table_top_z_m,
-        &import.scene,
-        import.rest_correction.as_ref(),
-    );
+    report_placement(given, &import.placement);
     for w in &import.warnings {
         eprintln!("warning: {w}");
     }
@@ -277,21 +268,12 @@ fn report_keypoints(
     out: &std::path::Path,
     given: &std::path::Path,
     import: &dexwarp::import::KeypointImport,
-    hull: Option<[f64; 2]>,
 ) {
     let demo = &import.demo;
     if import.mirrored {
         eprintln!("the left hand was mirrored onto the right robot hand (object mirrored too)");
     }
-    report_placement(
-        given,
-        import.mesh_repair.as_ref(),
-        hull,
-        &import.mesh,
-        import.table_top_z_m,
-        &import.scene,
-        import.rest_correction.as_ref(),
-    );
+    report_placement(given, &import.placement);
     if let Some(r) = &import.refinement {
         eprintln!(
             "contact refinement: D_C {:.1} mm -> {:.2} mm{} (IK at its threshold on {}), {:.1} s",
@@ -328,33 +310,26 @@ fn report_keypoints(
 }
 
 /// What an import did to the object's mesh and where it put it, on stderr.
-fn report_placement(
-    given: &std::path::Path,
-    repair: Option<&dexwarp::geometry::Repair>,
-    hull: Option<[f64; 2]>,
-    mesh: &std::path::Path,
-    table_top_z_m: Option<f64>,
-    scene: &std::path::Path,
-    rest: Option<&dexwarp::import::RestCorrection>,
-) {
-    if let Some(r) = repair {
+fn report_placement(given: &std::path::Path, placement: &dexwarp::import::Placement) {
+    let (mesh, scene) = (&placement.mesh, &placement.scene);
+    if let Some(r) = &placement.mesh_repair {
         eprintln!(
             "object mesh {} repaired: {r}; written to {}",
             given.display(),
             mesh.display()
         );
     }
-    if let Some([h, m]) = hull {
+    if let Some([h, m]) = placement.hull_volumes_cm3 {
         eprintln!(
             "object mesh {} replaced by its convex hull ({h:.1} cm³ against the mesh's {m:.1} cm³), written to {}",
             given.display(),
             mesh.display()
         );
     }
-    if let Some(z) = table_top_z_m {
+    if let Some(z) = placement.table_top_z_m {
         eprintln!("table inferred at z = {z:.3} m: {}", scene.display());
     }
-    if let Some(r) = rest {
+    if let Some(r) = &placement.rest_correction {
         let said = |corrected: bool| {
             if corrected {
                 "moved there"
