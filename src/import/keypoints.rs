@@ -1302,8 +1302,8 @@ fn backward(solver: &mut IkSolver<'_>, object: &[Isometry3<f64>], solved: &mut [
 }
 
 /// Retargets `rec` onto `robot` (see the module docs). `support` is the table as a world
-/// shape; `ik` the IK's parameters (non-penetration on).
-#[allow(clippy::too_many_arguments)]
+/// shape. The IK keeps its defaults (non-penetration on) but for a stop rule of 0.5 mm and the
+/// support's reach [`Params::support_margin_m`].
 pub fn retarget(
     robot: &Robot,
     robot_path: &Path,
@@ -1311,9 +1311,13 @@ pub fn retarget(
     rec: &Recording,
     object: &ObjectGeometry,
     support: &[CollisionShape],
-    ik: &IkParams,
     params: &Params,
 ) -> Result<Retargeted> {
+    let ik = &IkParams {
+        threshold_mm: 0.5,
+        margin_m: params.support_margin_m,
+        ..IkParams::default()
+    };
     let resolved = map.resolve(robot, robot_path)?;
     let mut rec = rec.clone();
     smooth_keypoints(&mut rec, params.smoothing_window);

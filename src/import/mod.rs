@@ -524,12 +524,7 @@ pub fn import_csv(
     target: &Target,
     limits: &Limits,
 ) -> Result<Imported> {
-    crate::model::json::FieldCheck::new(frames).in_range(
-        || "--fps".into(),
-        fps,
-        crate::limits::FPS_RANGE_HZ,
-        "frames per second",
-    )?;
+    check_fps(frames, fps)?;
     check_mass(target)?;
     let robot = Robot::from_urdf_file(&target.robot, limits)?;
     let poses = read_frames_csv(frames, &robot, limits)?;
@@ -551,6 +546,18 @@ fn checked_scene(scene: Option<&Path>, limits: &Limits) -> Result<Option<PathBuf
     scene
         .map(|p| crate::model::Scene::load(p, limits).map(|_| p.to_path_buf()))
         .transpose()
+}
+
+/// `--fps` of the recording `path` within the frame rates dexwarp takes.
+fn check_fps(path: &Path, fps: f64) -> Result<()> {
+    crate::model::json::FieldCheck::new(path)
+        .in_range(
+            || "--fps".into(),
+            fps,
+            crate::limits::FPS_RANGE_HZ,
+            "frames per second",
+        )
+        .map(|_| ())
 }
 
 fn check_mass(target: &Target) -> Result<()> {

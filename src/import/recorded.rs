@@ -13,8 +13,8 @@ use std::time::Instant;
 use nalgebra::{Isometry3, Vector3};
 use serde::Serialize;
 
-use super::keypoints::{self, Handedness, KeypointMap};
-use super::{Target, check_mass, finish_in};
+use super::keypoints::{self, Handedness, KeypointMap, Recording};
+use super::{Target, check_fps, check_mass, finish_in};
 use crate::geometry::{Mesh, Repair};
 use crate::model::Demo;
 use crate::model::scene::{
@@ -517,22 +517,12 @@ pub(crate) fn place_object(
     })
 }
 
-/// `dexwarp import --keypoints` (see the module docs and [`keypoints`]).
-pub fn import_keypoints(
-    frames: &Path,
+/// The keypoint map (`--keypoint-map`, else the built-in human hand's) and the retargeting
+/// parameters: `--retarget`'s, else the map's own (checked), else the defaults.
+fn map_and_params(
     options: &KeypointOptions,
-    target: &Target,
     limits: &Limits,
-) -> Result<KeypointImport> {
-    let clock = Instant::now();
-    crate::model::json::FieldCheck::new(frames).in_range(
-        || "--fps".into(),
-        options.fps,
-        crate::limits::FPS_RANGE_HZ,
-        "frames per second",
-    )?;
-    check_mass(target)?;
-    let robot = Robot::from_urdf_file(&target.robot, limits)?;
+) -> Result<(KeypointMap, keypoints::Params)> {
     let map = match &options.keypoint_map {
         Some(p) => crate::model::json::read_json::<KeypointMap>(p, limits)?,
         None => KeypointMap::human_hand(),
@@ -545,6 +535,36 @@ pub fn import_keypoints(
         }
         _ => keypoints::Params::default(),
     };
+    Ok((map, params))
+}
+
+/// The object's name in the demonstration: `target`'s, else its mesh file's stem, marked
+/// `(mirrored)` when the recording was.
+fn object_name(target: &Target, mirrored: bool) -> String {
+    if let Some(n) = &target.object_name {
+        return n.clone();
+    }
+    let stem = target
+        .mesh
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "object".into());
+    if mirrored {
+        format!("{stem} (mirrored)")
+    } else {
+        stem
+    }
+}
+
+/// The recording read, mirrored when it is a left hand (its object mesh too), and its object
+/// placed in its scene ([`place_object`]) with the keypoints moved by the rest correction.
+fn read_and_place(
+    frames: &Path,
+    options: &KeypointOptions,
+    robot: &Robot,
+    target: &Target,
+    limits: &Limits,
+) -> Result<(Recording, Placed)> {
     let mut rec = keypoints::read_keypoints_csv(frames, limits)?;
     let mesh = Mesh::load(&target.mesh, Vector3::repeat(1.0), limits)?;
     let (mut mesh, mesh_repair, hull_volumes_cm3) =
@@ -567,7 +587,7 @@ pub fn import_keypoints(
             hand_z0,
         },
         &mut rec.object,
-        &robot,
+        robot,
         target,
         limits,
     )?;
@@ -576,6 +596,23 @@ pub fn import_keypoints(
             *p = world * *p;
         }
     }
+    Ok((rec, placed))
+}
+
+/// `dexwarp import --keypoints` (see the module docs and [`keypoints`]).
+pub fn import_keypoints(
+    frames: &Path,
+    options: &KeypointOptions,
+    target: &Target,
+    limits: &Limits,
+) -> Result<KeypointImport> {
+    let clock = Instant::now();
+    check_fps(frames, options.fps)?;
+    check_mass(target)?;
+    let robot = Robot::from_urdf_file(&target.robot, limits)?;
+    let (map, params) = map_and_params(options, limits)?;
+    let (rec, placed) = read_and_place(frames, options, &robot, target, limits)?;
+    let mirrored = options.handedness == Handedness::Left;
     let Placed {
         mesh,
         geometry,
@@ -584,11 +621,6 @@ pub fn import_keypoints(
         mut warnings,
         ..
     } = placed;
-    let ik = crate::hand::ik::Params {
-        threshold_mm: 0.5,
-        margin_m: params.support_margin_m,
-        ..crate::hand::ik::Params::default()
-    };
     let hand = keypoints::retarget(
         &robot,
         &target.robot,
@@ -596,7 +628,6 @@ pub fn import_keypoints(
         &rec,
         &geometry,
         &supports,
-        &ik,
         &params,
     )?;
     warnings.extend(moved_before_touch(&rec.object, hand.touch));
@@ -614,21 +645,7 @@ pub fn import_keypoints(
         .collect();
     let target = Target {
         mesh: placement.mesh.clone(),
-        object_name: Some(match (&target.object_name, mirrored) {
-            (Some(n), _) => n.clone(),
-            (None, m) => {
-                let stem = target
-                    .mesh
-                    .file_stem()
-                    .map(|s| s.to_string_lossy().to_string())
-                    .unwrap_or_else(|| "object".into());
-                if m {
-                    format!("{stem} (mirrored)")
-                } else {
-                    stem
-                }
-            }
-        }),
+        object_name: Some(object_name(target, mirrored)),
         name: Some(demo_name(target)),
         ..target.clone()
     };
