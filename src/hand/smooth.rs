@@ -188,23 +188,27 @@ pub fn run(
 }
 
 /// One grasp for the frames of `range` (the contact segment): the hand's pose in the
-/// object's frame, `O(t)⁻¹·W(t)`, and its joints are averaged over the range (positions and
-/// joint angles by their mean, rotations by Markley's average) and the average is placed on
-/// the object at every frame, `W(t) = O(t)·Ḡ`. A per-frame IK follows its correspondences
-/// frame by frame, and where they drift (a tracking error shared by a frame's points) the
-/// hand slides on the object; a held grasp does not. Joints are clamped by `clamp`. Frames
-/// outside the range are untouched (fade them with [`ease_ends`]).
+/// object's frame, `O(t)⁻¹·W(t)`, and its joints are averaged over the frames of `over` (the
+/// frames that carry the object, [`carried`]; positions and joint angles by their mean,
+/// rotations by Markley's average) and the average is placed on the object at every frame of
+/// `range`, `W(t) = O(t)·Ḡ`. A per-frame IK follows its correspondences frame by frame, and
+/// where they drift (a tracking error shared by a frame's points) the hand slides on the
+/// object; a held grasp does not. Joints are clamped by `clamp`. Frames outside the range are
+/// untouched (fade them with [`ease_ends`]); `over` is cut to the range.
 pub fn hold_grasp(
     hand: &mut HandPath,
     objects: &[Isometry3<f64>],
     range: RangeInclusive<usize>,
+    over: RangeInclusive<usize>,
     clamp: impl Fn(&mut [f64]),
 ) -> Result<(), RotationError> {
     let (a, b) = (*range.start(), *range.end());
     if a > b || b >= hand.len() || objects.len() != hand.len() {
         return Ok(());
     }
-    let rel: Vec<Isometry3<f64>> = (a..=b)
+    let (lo, hi) = ((*over.start()).max(a), (*over.end()).min(b));
+    let (lo, hi) = if lo > hi { (a, b) } else { (lo, hi) };
+    let rel: Vec<Isometry3<f64>> = (lo..=hi)
         .map(|t| objects[t].inverse() * hand.wrists[t])
         .collect();
     let m = rel.len() as f64;
@@ -218,7 +222,7 @@ pub fn hold_grasp(
     let held = Isometry3::from_parts(Translation3::from(position), rotation);
     let dof = hand.dof;
     let mut q = vec![0.0; dof];
-    for t in a..=b {
+    for t in lo..=hi {
         for (v, x) in q.iter_mut().zip(hand.q(t)) {
             *v += x / m;
         }
@@ -229,6 +233,57 @@ pub fn hold_grasp(
         hand.joints[t * dof..(t + 1) * dof].copy_from_slice(&q);
     }
     Ok(())
+}
+
+/// The frames of `range` (the contact segment) that carry the object: from the first frame
+/// whose pose is more than `reach_m` or `reach_rad` from the pose at the range's first frame
+/// to the last frame more than that from the pose at its last frame. Before and after, the
+/// object rests (the hand closes on it, or lets it go) and the grasp is still forming; a grasp
+/// held there is the carry's grasp, pressed on a resting object before the hand has closed.
+/// The whole range when the object never moves that far.
+pub fn carried(
+    objects: &[Isometry3<f64>],
+    range: RangeInclusive<usize>,
+    reach_m: f64,
+    reach_rad: f64,
+) -> RangeInclusive<usize> {
+    let (a, b) = (*range.start(), *range.end());
+    if a > b || b >= objects.len() {
+        return range;
+    }
+    let away = |from: &Isometry3<f64>, t: usize| {
+        let d = from.inverse() * objects[t];
+        d.translation.vector.norm() > reach_m || d.rotation.angle() > reach_rad
+    };
+    let first = (a..=b).find(|&t| away(&objects[a], t));
+    let last = (a..=b).rev().find(|&t| away(&objects[b], t));
+    match (first, last) {
+        (Some(s), Some(e)) if s <= e => s..=e,
+        _ => range,
+    }
+}
+
+/// The share of the per-frame hand ([`release_held`]) at each frame of `range` where the
+/// grasp is still forming around the carry `carry` ([`carried`]): with `closing`, 1 before the
+/// carry, falling linearly to 0 over its first `frames` frames; with `opening`, the same
+/// mirrored at its end; 0 elsewhere.
+pub fn forming_shares(
+    range: RangeInclusive<usize>,
+    carry: RangeInclusive<usize>,
+    closing: bool,
+    opening: bool,
+    frames: usize,
+) -> Vec<f64> {
+    let (s, e) = (*carry.start() as f64, *carry.end() as f64);
+    let n = frames.max(1) as f64;
+    range
+        .map(|t| {
+            let t = t as f64;
+            let up = if closing { (s + n - t) / n } else { 0.0 };
+            let down = if opening { (t - e + n) / n } else { 0.0 };
+            up.max(down).clamp(0.0, 1.0)
+        })
+        .collect()
 }
 
 /// Where the held grasp comes too near a barrier, the per-frame solution comes back as far

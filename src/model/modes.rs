@@ -99,10 +99,13 @@ pub enum WarmStart {
 pub enum GraspMode {
     /// Every frame keeps its own IK solution (the paper).
     PerFrame,
-    /// One grasp for the whole segment: the average of the frames' IK solutions in the
-    /// object's frame, placed on the object at every frame (`hand::smooth::hold_grasp`),
-    /// except near a barrier, where the hand moves toward the per-frame solution only as far
-    /// as the hand clearance asks (`hand::smooth::release_held`). Default.
+    /// One grasp for the segment: the average of the IK solutions in the object's frame over
+    /// the frames that carry the object (`hand::smooth::carried`), placed on the object at
+    /// every frame (`hand::smooth::hold_grasp`), except where the hand is still forming its
+    /// grasp on the resting object before or after the carry (there the per-frame solution,
+    /// blended into the held grasp over the carry's first and last 0.25 s) and near a
+    /// barrier, where the hand moves toward the per-frame solution only as far as the hand
+    /// clearance asks (`hand::smooth::release_held`). Default.
     #[default]
     Held,
 }

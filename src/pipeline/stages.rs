@@ -29,6 +29,18 @@ pub(super) type Timing = BTreeMap<String, f64>;
 /// the contact segment [s] (stage 5c, [`smooth::ease_ends`]).
 const EASE_S: f64 = 0.25;
 
+/// How far the object moves from where it rests at an end of the contact segment before
+/// it counts as carried ([`smooth::carried`]): 2 mm, 2°.
+const CARRY_REACH_M: f64 = 0.002;
+const CARRY_REACH_RAD: f64 = 2.0 * std::f64::consts::PI / 180.0;
+
+/// How far a link of the per-frame hand may be from its place in the carry's grasp while the
+/// object rests before (or after) the carry for the grasp to count as formed there [m]. The
+/// built-in demonstrations, whose hands close before they touch, stay within 8 mm; a recorded
+/// hand still closing when it touches (a thumb that arrives as the object lifts) is 25-65 mm
+/// away.
+const FORMING_GAP_M: f64 = 0.015;
+
 /// What contact IK left besides the hand: the unsmoothed solution, its statistics, and what
 /// the guard holds the smoothed hand to.
 pub(super) struct IkRun {
@@ -188,10 +200,8 @@ pub(super) fn contact_ik(
         let objects: Vec<_> = (0..path.len()).map(|t| path.pose(t)).collect();
         // Without barriers nothing can make the per-frame solution come back.
         let per_frame = (!shapes.is_empty()).then(|| hand.clone());
-        smooth::hold_grasp(&mut hand, &objects, range.clone(), |q| {
-            robot.clamp(q);
-        })
-        .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
+        held_grasp(robot, &mut hand, &objects, range.clone(), ease)
+            .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
         if let Some(per_frame) = per_frame {
             let clearance = config.params.hand_clearance_m;
             held_yield = Some(yield_to_barriers(
@@ -227,6 +237,55 @@ pub(super) fn contact_ik(
         held_yield,
     };
     Ok((hand, ik))
+}
+
+/// Stage 5 with a held grasp: the carry's grasp ([`smooth::hold_grasp`] over the frames that
+/// carry the object, [`smooth::carried`]) on the object at every frame of the contact segment
+/// `range`, `hand` the per-frame IK's. Where the object rests at an end of the segment and the
+/// hand is still forming its grasp there (closing on the object, or opening off it: a link
+/// more than [`FORMING_GAP_M`] from its place in the carry's grasp), pressing the finished
+/// grasp on the resting object would shove it before the hand has closed; there the hand
+/// keeps its per-frame solution and blends into the held grasp over the carry's first (last)
+/// `ease` frames. An end where the grasp is already formed is held like the carry, and the
+/// average taken over it too.
+fn held_grasp(
+    robot: &Robot,
+    hand: &mut HandPath,
+    objects: &[Isometry3<f64>],
+    range: std::ops::RangeInclusive<usize>,
+    ease: usize,
+) -> std::result::Result<(), crate::math::rotation::RotationError> {
+    let clamp = |q: &mut [f64]| {
+        robot.clamp(q);
+    };
+    let (a, b) = (*range.start(), *range.end());
+    if a > b || b >= hand.len() || objects.len() != hand.len() {
+        return Ok(());
+    }
+    let per_frame = hand.clone();
+    let carry = smooth::carried(objects, range.clone(), CARRY_REACH_M, CARRY_REACH_RAD);
+    let (s, e) = (*carry.start(), *carry.end());
+    smooth::hold_grasp(hand, objects, range.clone(), carry.clone(), clamp)?;
+    let mut own = robot.new_link_poses();
+    let mut held = robot.new_link_poses();
+    let mut forming = |frames: std::ops::Range<usize>| {
+        frames.into_iter().any(|t| {
+            robot.forward_kinematics(&per_frame.wrists[t], per_frame.q(t), &mut own);
+            robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut held);
+            own.iter()
+                .zip(&held)
+                .any(|(x, y)| (x.translation.vector - y.translation.vector).norm() > FORMING_GAP_M)
+        })
+    };
+    let (closing, opening) = (forming(a..s), forming(e + 1..b + 1));
+    let over = if closing { s } else { a }..=if opening { e } else { b };
+    *hand = per_frame.clone();
+    smooth::hold_grasp(hand, objects, range.clone(), over, clamp)?;
+    if closing || opening {
+        let share = smooth::forming_shares(range.clone(), carry, closing, opening, ease);
+        smooth::release_held(hand, &per_frame, objects, range, &share, 0);
+    }
+    Ok(())
 }
 
 /// Reach within which a held grasp is checked against the barriers [m]: the IK's barrier

@@ -462,7 +462,7 @@ fn a_held_grasp_is_one_pose_in_the_objects_frame() {
         hand.push(o * rel, &[0.2 + 0.1 * (t % 2) as f64]);
     }
     let before = hand.clone();
-    smooth::hold_grasp(&mut hand, &objects, 10..=29, |_| {}).unwrap();
+    smooth::hold_grasp(&mut hand, &objects, 10..=29, 10..=29, |_| {}).unwrap();
     let rel = |t: usize| objects[t].inverse() * hand.wrists[t];
     let mean_x = (10..=29)
         .map(|t| (objects[t].inverse() * before.wrists[t]).translation.x)
@@ -493,6 +493,62 @@ fn a_held_grasp_is_one_pose_in_the_objects_frame() {
     let spread =
         xs.iter().cloned().fold(f64::MIN, f64::max) - xs.iter().cloned().fold(f64::MAX, f64::min);
     assert!(spread > 3e-3, "{spread}");
+}
+
+/// The carry of a contact segment: the frames where the object is away from where it rests
+/// at the segment's ends (a lift over frames 15-24 inside contact 10-29: frame 24 is already
+/// at the end's pose); a grasp held over the carry alone is the carry's grasp, not the mean
+/// with the hand still closing; and the per-frame hand's share where the grasp is still
+/// forming is 1 at rest, falling to 0 over the carry's first (last) frames.
+#[test]
+fn a_grasp_is_held_over_the_carry_and_forms_at_rest() {
+    let n = 40;
+    let lift = |t: usize| 0.01 * (t.clamp(14, 24) - 14) as f64;
+    let objects: Vec<Isometry3<f64>> = (0..n)
+        .map(|t| Isometry3::translation(0.0, 0.0, 0.9 + lift(t)))
+        .collect();
+    assert_eq!(smooth::carried(&objects, 10..=29, 0.002, 0.035), 15..=23);
+    // Turning in place counts (0.05 rad a frame over frames 20-24).
+    let turning: Vec<Isometry3<f64>> = (0..n)
+        .map(|t| Isometry3::rotation(Vector3::z() * 0.05 * (t.clamp(19, 24) - 19) as f64))
+        .collect();
+    assert_eq!(smooth::carried(&turning, 10..=29, 0.002, 0.035), 20..=23);
+    // Resting throughout, or a motion within the reach: the whole segment.
+    let resting = vec![Isometry3::identity(); n];
+    assert_eq!(smooth::carried(&resting, 10..=29, 0.002, 0.035), 10..=29);
+    let nudged: Vec<Isometry3<f64>> = (0..n)
+        .map(|t| Isometry3::translation(0.001 * lift(t), 0.0, 0.0))
+        .collect();
+    assert_eq!(smooth::carried(&nudged, 10..=29, 0.002, 0.035), 10..=29);
+
+    // A joint still closing (0.0 at rest, 0.5 once carried): held over the carry, it is 0.5;
+    // over the whole segment, the mean of both.
+    let mut hand = HandPath::with_capacity(n, 1);
+    for (t, o) in objects.iter().enumerate() {
+        let q = if t < 15 { 0.0 } else { 0.5 };
+        hand.push(o * Isometry3::translation(0.1, 0.0, 0.0), &[q]);
+    }
+    let mut over_range = hand.clone();
+    smooth::hold_grasp(&mut over_range, &objects, 10..=29, 10..=29, |_| {}).unwrap();
+    assert!((over_range.q(20)[0] - 0.375).abs() < 1e-12);
+    smooth::hold_grasp(&mut hand, &objects, 10..=29, 15..=23, |_| {}).unwrap();
+    for t in 10..=29 {
+        assert!((hand.q(t)[0] - 0.5).abs() < 1e-12, "frame {t}");
+    }
+
+    let share = smooth::forming_shares(10..=29, 15..=23, true, false, 4);
+    let expect = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.75, 0.5, 0.25, 0.0];
+    for (got, want) in share.iter().zip(expect) {
+        assert!((got - want).abs() < 1e-12, "{share:?}");
+    }
+    assert!(share[10..].iter().all(|&s| s == 0.0), "{share:?}");
+    let both = smooth::forming_shares(10..=29, 15..=23, true, true, 4);
+    // Frames 19, 22, 23 and 29.
+    assert!(
+        both[9] == 0.0 && (both[12] - 0.75).abs() < 1e-12,
+        "{both:?}"
+    );
+    assert!(both[13] == 1.0 && both[19] == 1.0, "{both:?}");
 }
 
 /// Where a held grasp must give way (a barrier), the per-frame solution comes back at that
