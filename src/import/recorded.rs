@@ -178,15 +178,21 @@ pub(crate) fn moved_before_touch(
     ))
 }
 
-/// What the contact refinement did: D_C [mm] before and after, and the share of the contact
-/// segment's frames where the IK reached its threshold.
+/// What the contact refinement did: D_C [mm] before and after, how deep the hand is in the
+/// object before and after, and the share of the contact segment's frames where the IK
+/// reached its threshold.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Refinement {
     pub d_c_before_mm: f64,
     /// D_C of the demonstration written: the refined hand's when it was kept.
     pub d_c_mm: f64,
-    /// D_C the refinement reached, and whether it was kept (only when lower than before).
+    /// D_C the refinement reached, and whether it was kept (only when lower than before
+    /// and the hand no deeper in the object).
     pub d_c_refined_mm: f64,
+    /// The deepest penetration probe in the object over every frame [mm], before and after
+    /// the refinement (the measure the IK keeps out and `validate` reports).
+    pub depth_before_mm: f64,
+    pub depth_refined_mm: f64,
     pub kept: bool,
     pub ik_converged_fraction: Option<f64>,
     pub time_s: f64,
@@ -237,10 +243,17 @@ pub fn refine_contacts(
     )?;
     let r = &run.report;
     let (before, after) = (r.metrics.d_c_mm.original, r.metrics.d_c_mm.warped);
-    // Kept only where it brings the fingertips closer: an IK that cannot reach the contacts
-    // (a hand far from the person's proportions) would otherwise trade the recording's
-    // approach for nothing.
-    let kept = after < before;
+    let deepest = |d: &Demo| {
+        crate::geometry::object_sdf(mesh).map_or(0.0, |sdf| {
+            crate::metrics::max_hand_object_penetration_mm(robot, d, &sdf)
+        })
+    };
+    let (depth_before, depth_after) = (deepest(&inputs.demo), deepest(&run.demo));
+    // Kept only where it brings the fingertips closer without pressing the hand deeper: an IK
+    // that cannot reach the contacts (a hand far from the person's proportions) would
+    // otherwise trade the recording's approach for nothing, and a closer fit bought with
+    // fingers further in the object is not a better one.
+    let kept = after < before && depth_after <= depth_before;
     let demo = if kept {
         let mut refined = run.demo;
         refined.timewarp = None;
@@ -256,6 +269,8 @@ pub fn refine_contacts(
             d_c_before_mm: before,
             d_c_mm: if kept { after } else { before },
             d_c_refined_mm: after,
+            depth_before_mm: depth_before,
+            depth_refined_mm: depth_after,
             kept,
             ik_converged_fraction: r.ik.as_ref().map(|ik| ik.converged_fraction),
             time_s: clock.elapsed().as_secs_f64(),

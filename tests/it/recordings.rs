@@ -151,6 +151,14 @@ fn the_shared_take_imports_with_its_mesh_repaired_its_table_inferred_and_a_grasp
     let refined = &import["refinement"];
     let d_c = refined["d_c_mm"].as_f64().unwrap();
     assert!(d_c <= 5.0, "D_C {d_c} mm");
+    // A refinement is kept only when it brings the pads closer without pressing the hand
+    // deeper; the record says both depths.
+    let depth = |k: &str| refined[k].as_f64().unwrap_or(f64::NAN);
+    let (before, after) = (depth("depth_before_mm"), depth("depth_refined_mm"));
+    assert!(before.is_finite() && after.is_finite(), "{refined}");
+    if refined["kept"] == true {
+        assert!(after <= before, "{refined}");
+    }
     // The recorded rest pose stands a few millimetres and degrees off the table (4.0 mm,
     // 2.3 degrees as the object settles) and is moved to where it rests; the last of the 60
     // frames is in the air, mid-lift, and stays as recorded.

@@ -280,9 +280,14 @@ fn report_keypoints(
             r.d_c_before_mm,
             r.d_c_refined_mm,
             if r.kept {
-                ""
+                String::new()
+            } else if r.d_c_refined_mm < r.d_c_before_mm {
+                format!(
+                    ", not kept: the hand went deeper in the object ({:.2} mm against {:.2} mm)",
+                    r.depth_refined_mm, r.depth_before_mm
+                )
             } else {
-                ", not kept: the retargeted hand was closer"
+                ", not kept: the retargeted hand was closer".into()
             },
             r.ik_converged_fraction.map_or("no".into(), |f| format!(
                 "{:.0} % of the contact frames",
