@@ -122,6 +122,7 @@ pub(super) fn warp_report(
                 max_depth_after_mm: g.max_depth_after_mm,
             }),
             held_yield: ik.held_yield.clone(),
+            held: ik.held.clone(),
         });
         for r in &mut frames {
             if let Some(f) = r

@@ -14,7 +14,7 @@ use crate::hand::ik;
 use crate::hand::{HandPath, baseline as rigid, guard as hand_guard, smooth};
 use crate::metrics;
 use crate::model::provenance::Provenance;
-use crate::model::report::HeldYield;
+use crate::model::report::{HeldSpan, HeldYield};
 use crate::model::{Demo, GraspMode, Objective};
 use crate::physics;
 use crate::robot::Robot;
@@ -54,6 +54,8 @@ pub(super) struct IkRun {
     /// Where the held grasp yielded to a barrier; `None` for a per-frame grasp or without
     /// barriers.
     pub held_yield: Option<HeldYield>,
+    /// Where the held grasp is held (held grasp only).
+    pub held: Option<HeldSpan>,
 }
 
 /// The warp plan of the inputs (contact segment, output frames), refused before any work
@@ -194,13 +196,13 @@ pub(super) fn contact_ik(
     let ease = crate::math::frames_in(EASE_S, demo.fps).max(1);
     let (mut hand, _) = smooth::run(&raw, range.clone(), smoothing)
         .map_err(|e| Error::invalid(&config.source, "(smoothing)", e.to_string()))?;
-    let mut held_yield = None;
+    let (mut held_yield, mut held) = (None, None);
     if config.params.grasp == GraspMode::Held {
         let path = object.path();
         let objects: Vec<_> = (0..path.len()).map(|t| path.pose(t)).collect();
         // Without barriers nothing can make the per-frame solution come back.
         let per_frame = (!shapes.is_empty()).then(|| hand.clone());
-        held_grasp(robot, &mut hand, &objects, range.clone(), ease)
+        held = held_grasp(robot, &mut hand, &objects, range.clone(), ease)
             .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
         if let Some(per_frame) = per_frame {
             let clearance = config.params.hand_clearance_m;
@@ -235,6 +237,7 @@ pub(super) fn contact_ik(
         tolerance_mm,
         guard_with,
         held_yield,
+        held,
     };
     Ok((hand, ik))
 }
@@ -247,20 +250,20 @@ pub(super) fn contact_ik(
 /// grasp on the resting object would shove it before the hand has closed; there the hand
 /// keeps its per-frame solution and blends into the held grasp over the carry's first (last)
 /// `ease` frames. An end where the grasp is already formed is held like the carry, and the
-/// average taken over it too.
+/// average taken over it too. Returns where it held (`None` for an empty segment).
 fn held_grasp(
     robot: &Robot,
     hand: &mut HandPath,
     objects: &[Isometry3<f64>],
     range: std::ops::RangeInclusive<usize>,
     ease: usize,
-) -> std::result::Result<(), crate::math::rotation::RotationError> {
+) -> std::result::Result<Option<HeldSpan>, crate::math::rotation::RotationError> {
     let clamp = |q: &mut [f64]| {
         robot.clamp(q);
     };
     let (a, b) = (*range.start(), *range.end());
     if a > b || b >= hand.len() || objects.len() != hand.len() {
-        return Ok(());
+        return Ok(None);
     }
     let per_frame = hand.clone();
     let carry = smooth::carried(objects, range.clone(), CARRY_REACH_M, CARRY_REACH_RAD);
@@ -285,7 +288,11 @@ fn held_grasp(
         let share = smooth::forming_shares(range.clone(), carry, closing, opening, ease);
         smooth::release_held(hand, &per_frame, objects, range, &share, 0);
     }
-    Ok(())
+    Ok(Some(HeldSpan {
+        carry: [s, e],
+        closing,
+        opening,
+    }))
 }
 
 /// Reach within which a held grasp is checked against the barriers [m]: the IK's barrier

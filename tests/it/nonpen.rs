@@ -443,7 +443,9 @@ fn a_held_grasp_yields_to_a_wall_only_as_far_as_the_clearance_asks() {
 }
 
 /// Where the held grasp keeps its clearance from every barrier, it does not yield: the
-/// report says so (and nothing without barriers or with a per-frame grasp).
+/// report says so (and nothing without barriers or with a per-frame grasp). It also says where
+/// the grasp is held: over the carry, with the built-in mug's hand formed before the lift and
+/// after the put-down, so held there too.
 #[test]
 fn a_held_grasp_clear_of_the_barriers_does_not_yield() {
     let run = |name: &str, grasp: dexwarp::model::GraspMode| {
@@ -454,14 +456,29 @@ fn a_held_grasp_clear_of_the_barriers_does_not_yield() {
             .threshold_mm(Some(3.5))
             .physics(None);
         let run = pipeline::warp(&inputs, &options).unwrap();
-        run.report.ik.unwrap().held_yield
+        let frames = run.demo.frames.len();
+        (run.report.ik.unwrap(), frames)
     };
     use dexwarp::model::GraspMode::{Held, PerFrame};
-    let clear = run("mug_pass_wall", Held).expect("a held grasp with a barrier");
+    let (mug, frames) = run("mug_pass_wall", Held);
+    let clear = mug.held_yield.expect("a held grasp with a barrier");
     assert_eq!(
         (clear.frames, clear.max_share, clear.max_move_mm),
         (0, 0.0, 0.0)
     );
-    assert_eq!(run("fryingpan_island", Held), None, "no barrier");
-    assert_eq!(run("mug_pass_wall", PerFrame), None, "no held grasp");
+    let held = mug.held.expect("where the grasp is held");
+    let [s, e] = held.carry;
+    assert!(
+        0 < s && s + 100 < e && e + 1 < frames,
+        "{held:?} of {frames} frames"
+    );
+    assert!(!held.closing && !held.opening, "{held:?}");
+    assert_eq!(
+        run("fryingpan_island", Held).0.held_yield,
+        None,
+        "no barrier"
+    );
+    let (per_frame, _) = run("mug_pass_wall", PerFrame);
+    assert_eq!(per_frame.held_yield, None, "no held grasp");
+    assert_eq!(per_frame.held, None, "no held grasp");
 }

@@ -215,4 +215,37 @@ fn the_shared_take_imports_onto_the_community_allegro_with_its_map() {
     let d_c = import["refinement"]["d_c_mm"].as_f64().unwrap();
     assert!(d_c <= 5.0, "D_C {d_c} mm");
     validate_keeps(&out, &tmp.path().join("val"));
+
+    // An identity warp (the end where the object is at the last contact frame) gives the
+    // grasp back: its thumb arrives as the box lifts, so the warp holds the carry's grasp and
+    // follows the recording while the hand closes on the resting box and opens off it.
+    let demo = json(&out);
+    let last = import["touch_frames"][1].as_u64().unwrap() as usize;
+    let end = &demo["frames"][last]["object"]["position"];
+    let config = tmp.path().join("identity.config.json");
+    let text = serde_json::json!({
+        "format": "dexwarp.config/1", "name": "identity", "demo": "taco.demo.json",
+        "scene": "taco.scene.json", "end": end,
+    });
+    std::fs::write(&config, text.to_string()).unwrap();
+    let dir = tmp.path().join("identity");
+    let o = dexwarp(&[
+        "warp",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "--no-physics",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = json(&dir.join("report.json"));
+    let held = &report["ik"]["held"];
+    assert_eq!(held["closing"], true, "{held}");
+    let first = import["touch_frames"][0].as_u64().unwrap();
+    assert!(first < held["carry"][0].as_u64().unwrap(), "{held}");
+    let warped = report["metrics"]["d_c_mm"]["warped"].as_f64().unwrap();
+    assert!(
+        (warped - d_c).abs() <= 0.5,
+        "D_C {warped} mm against {d_c} mm"
+    );
 }
