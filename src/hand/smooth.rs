@@ -189,7 +189,8 @@ pub fn run(
 
 /// One grasp for the frames of `range` (the contact segment): the hand's pose in the
 /// object's frame, `O(t)⁻¹·W(t)`, and its joints are averaged over the frames of `over` (the
-/// frames that carry the object, [`carried`]; positions and joint angles by their mean,
+/// whole range, or from the carry on where the hand is still closing before it, [`carried`];
+/// positions and joint angles by their mean,
 /// rotations by Markley's average) and the average is placed on the object at every frame of
 /// `range`, `W(t) = O(t)·Ḡ`. A per-frame IK follows its correspondences frame by frame, and
 /// where they drift (a tracking error shared by a frame's points) the hand slides on the
@@ -238,9 +239,9 @@ pub fn hold_grasp(
 /// The frames of `range` (the contact segment) that carry the object: from the first frame
 /// whose pose is more than `reach_m` or `reach_rad` from the pose at the range's first frame
 /// to the last frame more than that from the pose at its last frame. Before and after, the
-/// object rests (the hand closes on it, or lets it go) and the grasp is still forming; a grasp
-/// held there is the carry's grasp, pressed on a resting object before the hand has closed.
-/// The whole range when the object never moves that far.
+/// object rests (the hand closes on it, or lets it go); a grasp held before the carry is the
+/// carry's grasp, pressed on the resting object whether the hand has closed or not. The whole
+/// range when the object never moves that far.
 pub fn carried(
     objects: &[Isometry3<f64>],
     range: RangeInclusive<usize>,
@@ -263,26 +264,14 @@ pub fn carried(
     }
 }
 
-/// The share of the per-frame hand ([`release_held`]) at each frame of `range` where the
-/// grasp is still forming around the carry `carry` ([`carried`]): with `closing`, 1 before the
-/// carry, falling linearly to 0 over its first `frames` frames; with `opening`, the same
-/// mirrored at its end; 0 elsewhere.
-pub fn forming_shares(
-    range: RangeInclusive<usize>,
-    carry: RangeInclusive<usize>,
-    closing: bool,
-    opening: bool,
-    frames: usize,
-) -> Vec<f64> {
-    let (s, e) = (*carry.start() as f64, *carry.end() as f64);
+/// The share of the per-frame hand ([`release_held`]) at each frame of `range` while the
+/// grasp is still closing before the carry that starts at frame `carry_start` ([`carried`]):
+/// 1 before it, falling linearly to 0 over its first `frames` frames, 0 from then on.
+pub fn closing_shares(range: RangeInclusive<usize>, carry_start: usize, frames: usize) -> Vec<f64> {
+    let s = carry_start as f64;
     let n = frames.max(1) as f64;
     range
-        .map(|t| {
-            let t = t as f64;
-            let up = if closing { (s + n - t) / n } else { 0.0 };
-            let down = if opening { (t - e + n) / n } else { 0.0 };
-            up.max(down).clamp(0.0, 1.0)
-        })
+        .map(|t| ((s + n - t as f64) / n).clamp(0.0, 1.0))
         .collect()
 }
 

@@ -97,8 +97,8 @@ pub struct WarpParams {
     /// the contact segment [m] (`hand::pushout`); 0 turns it off. Default 0.05.
     pub hand_radius_m: f64,
     /// How the hand holds the object over the contact segment: `held` (default: one grasp,
-    /// the average of the carry's IK solutions in the object's frame, at every frame but
-    /// where the grasp is still forming on the resting object; `hand::smooth::hold_grasp`)
+    /// the average of the frames' IK solutions in the object's frame, at every frame but
+    /// where the hand is still closing on the resting object; `hand::smooth::hold_grasp`)
     /// or `per_frame` (the paper: every frame keeps its IK solution).
     pub grasp: GraspMode,
     /// Clearance every link of the hand keeps from every barrier outside the contact segment,

@@ -99,11 +99,11 @@ pub enum WarmStart {
 pub enum GraspMode {
     /// Every frame keeps its own IK solution (the paper).
     PerFrame,
-    /// One grasp for the segment: the average of the IK solutions in the object's frame over
-    /// the frames that carry the object (`hand::smooth::carried`), placed on the object at
-    /// every frame (`hand::smooth::hold_grasp`), except where the hand is still forming its
-    /// grasp on the resting object before or after the carry (there the per-frame solution,
-    /// blended into the held grasp over the carry's first and last 0.25 s) and near a
+    /// One grasp for the segment: the average of the frames' IK solutions in the object's
+    /// frame, placed on the object at every frame (`hand::smooth::hold_grasp`), except where
+    /// the hand is still closing on the resting object before the carry
+    /// (`hand::smooth::carried`; there the per-frame solution, blended into the held grasp
+    /// over the carry's first 0.25 s, the grasp averaged from the carry on) and near a
     /// barrier, where the hand moves toward the per-frame solution only as far as the hand
     /// clearance asks (`hand::smooth::release_held`). Default.
     #[default]

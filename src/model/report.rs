@@ -185,17 +185,16 @@ pub struct IkSummary {
 }
 
 /// Where the held grasp is held: the carry, the output frames where the object is away from
-/// where it rests at the contact segment's ends, and whether the hand was still forming its
-/// grasp at rest before (closing) or after (opening) it. Where it was, the hand follows its
-/// per-frame solution there and takes the held grasp over the carry's first (last) 0.25 s.
+/// where it rests at the contact segment's ends, and whether the hand was still closing on
+/// the resting object before it. Where it was, the hand follows its per-frame solution there
+/// and takes the held grasp over the carry's first 0.25 s; the grasp is the average from the
+/// carry's first frame to the segment's end (from the segment's first frame otherwise).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct HeldSpan {
     /// First and last output frame of the carry.
     pub carry: [usize; 2],
     /// The hand was still closing on the resting object before the carry.
     pub closing: bool,
-    /// The hand was already opening off the resting object after the carry.
-    pub opening: bool,
 }
 
 /// How far the held grasp moved toward the per-frame solution to keep the hand clear of the

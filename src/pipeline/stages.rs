@@ -35,7 +35,7 @@ const CARRY_REACH_M: f64 = 0.002;
 const CARRY_REACH_RAD: f64 = 2.0 * std::f64::consts::PI / 180.0;
 
 /// How far a link of the per-frame hand may be from its place in the carry's grasp while the
-/// object rests before (or after) the carry for the grasp to count as formed there [m]. The
+/// object rests before the carry for the grasp to count as formed there [m]. The
 /// built-in demonstrations, whose hands close before they touch, stay within 8 mm; a recorded
 /// hand still closing when it touches (a thumb that arrives as the object lifts) is 25-65 mm
 /// away.
@@ -242,15 +242,18 @@ pub(super) fn contact_ik(
     Ok((hand, ik))
 }
 
-/// Stage 5 with a held grasp: the carry's grasp ([`smooth::hold_grasp`] over the frames that
-/// carry the object, [`smooth::carried`]) on the object at every frame of the contact segment
-/// `range`, `hand` the per-frame IK's. Where the object rests at an end of the segment and the
-/// hand is still forming its grasp there (closing on the object, or opening off it: a link
-/// more than [`FORMING_GAP_M`] from its place in the carry's grasp), pressing the finished
-/// grasp on the resting object would shove it before the hand has closed; there the hand
-/// keeps its per-frame solution and blends into the held grasp over the carry's first (last)
-/// `ease` frames. An end where the grasp is already formed is held like the carry, and the
-/// average taken over it too. Returns where it held (`None` for an empty segment).
+/// Stage 5 with a held grasp: the carry's grasp ([`smooth::hold_grasp`] from the first frame
+/// that carries the object, [`smooth::carried`]) on the object at every frame of the contact
+/// segment `range`, `hand` the per-frame IK's. Where the object rests before the carry and the
+/// hand is still closing on it there (a link more than [`FORMING_GAP_M`] from its place in the
+/// carry's grasp), pressing the finished grasp on the resting object would shove it before
+/// the hand has closed; there the hand keeps its per-frame solution and blends into the held
+/// grasp over the carry's first `ease` frames. A grasp already formed at rest is held there
+/// too, and the average taken over it. After the carry the grasp that put the object down is
+/// held to the segment's end whatever the per-frame hand does: it lies on the object where the
+/// carry left it, and the fade beyond the segment opens it as recorded (the per-frame opening
+/// swept the Allegro's fingers into a box that had settled off its plan, pushing it away in 17
+/// of 40 augmented samples). Returns where it held (`None` for an empty segment).
 fn held_grasp(
     robot: &Robot,
     hand: &mut HandPath,
@@ -268,30 +271,27 @@ fn held_grasp(
     let per_frame = hand.clone();
     let carry = smooth::carried(objects, range.clone(), CARRY_REACH_M, CARRY_REACH_RAD);
     let (s, e) = (*carry.start(), *carry.end());
-    smooth::hold_grasp(hand, objects, range.clone(), carry.clone(), clamp)?;
+    smooth::hold_grasp(hand, objects, range.clone(), s..=b, clamp)?;
     let mut own = robot.new_link_poses();
     let mut held = robot.new_link_poses();
-    let mut forming = |frames: std::ops::Range<usize>| {
-        frames.into_iter().any(|t| {
-            robot.forward_kinematics(&per_frame.wrists[t], per_frame.q(t), &mut own);
-            robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut held);
-            own.iter()
-                .zip(&held)
-                .any(|(x, y)| (x.translation.vector - y.translation.vector).norm() > FORMING_GAP_M)
-        })
-    };
-    let (closing, opening) = (forming(a..s), forming(e + 1..b + 1));
-    let over = if closing { s } else { a }..=if opening { e } else { b };
-    *hand = per_frame.clone();
-    smooth::hold_grasp(hand, objects, range.clone(), over, clamp)?;
-    if closing || opening {
-        let share = smooth::forming_shares(range.clone(), carry, closing, opening, ease);
+    let closing = (a..s).any(|t| {
+        robot.forward_kinematics(&per_frame.wrists[t], per_frame.q(t), &mut own);
+        robot.forward_kinematics(&hand.wrists[t], hand.q(t), &mut held);
+        own.iter()
+            .zip(&held)
+            .any(|(x, y)| (x.translation.vector - y.translation.vector).norm() > FORMING_GAP_M)
+    });
+    if closing {
+        let share = smooth::closing_shares(range.clone(), s, ease);
         smooth::release_held(hand, &per_frame, objects, range, &share, 0);
+    } else {
+        // Formed at rest: held from the segment's first frame, the average over it all.
+        *hand = per_frame;
+        smooth::hold_grasp(hand, objects, range.clone(), range, clamp)?;
     }
     Ok(Some(HeldSpan {
         carry: [s, e],
         closing,
-        opening,
     }))
 }
 

@@ -498,8 +498,8 @@ fn a_held_grasp_is_one_pose_in_the_objects_frame() {
 /// The carry of a contact segment: the frames where the object is away from where it rests
 /// at the segment's ends (a lift over frames 15-24 inside contact 10-29: frame 24 is already
 /// at the end's pose); a grasp held over the carry alone is the carry's grasp, not the mean
-/// with the hand still closing; and the per-frame hand's share where the grasp is still
-/// forming is 1 at rest, falling to 0 over the carry's first (last) frames.
+/// with the hand still closing; and the per-frame hand's share while the grasp is still
+/// closing is 1 at rest, falling to 0 over the carry's first frames.
 #[test]
 fn a_grasp_is_held_over_the_carry_and_forms_at_rest() {
     let n = 40;
@@ -536,19 +536,12 @@ fn a_grasp_is_held_over_the_carry_and_forms_at_rest() {
         assert!((hand.q(t)[0] - 0.5).abs() < 1e-12, "frame {t}");
     }
 
-    let share = smooth::forming_shares(10..=29, 15..=23, true, false, 4);
+    let share = smooth::closing_shares(10..=29, 15, 4);
     let expect = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.75, 0.5, 0.25, 0.0];
     for (got, want) in share.iter().zip(expect) {
         assert!((got - want).abs() < 1e-12, "{share:?}");
     }
     assert!(share[10..].iter().all(|&s| s == 0.0), "{share:?}");
-    let both = smooth::forming_shares(10..=29, 15..=23, true, true, 4);
-    // Frames 19, 22, 23 and 29.
-    assert!(
-        both[9] == 0.0 && (both[12] - 0.75).abs() < 1e-12,
-        "{both:?}"
-    );
-    assert!(both[13] == 1.0 && both[19] == 1.0, "{both:?}");
 }
 
 /// Where a held grasp must give way (a barrier), the per-frame solution comes back at that

@@ -218,7 +218,7 @@ fn the_shared_take_imports_onto_the_community_allegro_with_its_map() {
 
     // An identity warp (the end where the object is at the last contact frame) gives the
     // grasp back: its thumb arrives as the box lifts, so the warp holds the carry's grasp and
-    // follows the recording while the hand closes on the resting box and opens off it.
+    // follows the recording while the hand closes on the resting box.
     let demo = json(&out);
     let last = import["touch_frames"][1].as_u64().unwrap() as usize;
     let end = &demo["frames"][last]["object"]["position"];
