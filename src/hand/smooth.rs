@@ -190,9 +190,8 @@ pub fn run(
 /// One grasp for the frames of `range` (the contact segment): the hand's pose in the
 /// object's frame, `O(t)⁻¹·W(t)`, and its joints are averaged over the frames of `over` (the
 /// whole range, or from the carry on where the hand is still closing before it, [`carried`];
-/// positions and joint angles by their mean,
-/// rotations by Markley's average) and the average is placed on the object at every frame of
-/// `range`, `W(t) = O(t)·Ḡ`. A per-frame IK follows its correspondences frame by frame, and
+/// positions and joint angles by their mean, rotations by Markley's average) and the average
+/// is placed on the object at every frame of `range`, `W(t) = O(t)·Ḡ`. A per-frame IK follows its correspondences frame by frame, and
 /// where they drift (a tracking error shared by a frame's points) the hand slides on the
 /// object; a held grasp does not. Joints are clamped by `clamp`. Frames outside the range are
 /// untouched (fade them with [`ease_ends`]); `over` is cut to the range.

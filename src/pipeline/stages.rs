@@ -37,7 +37,7 @@ const CARRY_REACH_RAD: f64 = 2.0 * std::f64::consts::PI / 180.0;
 /// How far a link of the per-frame hand may be from its place in the carry's grasp while the
 /// object rests before the carry for the grasp to count as formed there [m]. The
 /// built-in demonstrations, whose hands close before they touch, stay within 8 mm; a recorded
-/// hand still closing when it touches (a thumb that arrives as the object lifts) is 25-65 mm
+/// hand still closing when it touches (a thumb that arrives as the object lifts) is 26-66 mm
 /// away.
 const FORMING_GAP_M: f64 = 0.015;
 
