@@ -728,7 +728,12 @@ pub(crate) fn write_record(out: &Path, import: &impl Serialize) -> Result<()> {
     )
 }
 
-/// Per frame (object pose, wrist pose, joints), how deep the hand is in the object [mm].
+/// Per frame (object pose, wrist pose, joints), how deep the hand is in the object [mm]: the
+/// deepest of the hand's penetration probes in the object's distance field, the measure the IK
+/// keeps out and `validate` reports. Not a contact query against the mesh's triangles: on the
+/// shared take's open box that query, and the exact layer's pseudo-normal inside test it rests
+/// on, put a LEAP link 50 mm above the box's rim 50 mm inside it (the field's ray parity: 52 mm
+/// outside).
 pub(crate) fn depths<'a>(
     robot: &Robot,
     geometry: &ObjectGeometry,
@@ -738,7 +743,8 @@ pub(crate) fn depths<'a>(
     frames
         .map(|(o, w, q)| {
             robot.forward_kinematics(w, q, &mut links);
-            crate::synth::proximity::penetration(robot, &links, geometry, o).depth_m * 1e3
+            crate::robot::probes::deepest(robot, &links, &o.inverse(), &geometry.sdf)
+                .map_or(0.0, |(d, _)| d * 1e3)
         })
         .collect()
 }
