@@ -243,9 +243,10 @@ pub fn refine_contacts(
     )?;
     let r = &run.report;
     let (before, after) = (r.metrics.d_c_mm.original, r.metrics.d_c_mm.warped);
+    let sdf = crate::geometry::object_sdf(mesh);
     let deepest = |d: &Demo| {
-        crate::geometry::object_sdf(mesh).map_or(0.0, |sdf| {
-            crate::metrics::max_hand_object_penetration_mm(robot, d, &sdf)
+        sdf.as_deref().map_or(0.0, |sdf| {
+            crate::metrics::max_hand_object_penetration_mm(robot, d, sdf)
         })
     };
     let (depth_before, depth_after) = (deepest(&inputs.demo), deepest(&run.demo));

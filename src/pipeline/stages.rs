@@ -200,11 +200,11 @@ pub(super) fn contact_ik(
     if config.params.grasp == GraspMode::Held {
         let path = object.path();
         let objects: Vec<_> = (0..path.len()).map(|t| path.pose(t)).collect();
-        // Without barriers nothing can make the per-frame solution come back.
-        let per_frame = (!shapes.is_empty()).then(|| hand.clone());
-        held = held_grasp(robot, &mut hand, &objects, range.clone(), ease)
+        let per_frame = hand.clone();
+        held = held_grasp(robot, &mut hand, &per_frame, &objects, range.clone(), ease)
             .map_err(|e| Error::invalid(&config.source, "params.grasp", e.to_string()))?;
-        if let Some(per_frame) = per_frame {
+        // Without barriers nothing else makes the per-frame solution come back.
+        if !shapes.is_empty() {
             let clearance = config.params.hand_clearance_m;
             held_yield = Some(yield_to_barriers(
                 robot,
@@ -253,10 +253,12 @@ pub(super) fn contact_ik(
 /// held to the segment's end whatever the per-frame hand does: it lies on the object where the
 /// carry left it, and the fade beyond the segment opens it as recorded (the per-frame opening
 /// swept the Allegro's fingers into a box that had settled off its plan, pushing it away in 17
-/// of 40 augmented samples). Returns where it held (`None` for an empty segment).
+/// of 40 augmented samples). `hand` is `per_frame` on entry. Returns where it held (`None` for
+/// an empty segment).
 fn held_grasp(
     robot: &Robot,
     hand: &mut HandPath,
+    per_frame: &HandPath,
     objects: &[Isometry3<f64>],
     range: std::ops::RangeInclusive<usize>,
     ease: usize,
@@ -268,7 +270,6 @@ fn held_grasp(
     if a > b || b >= hand.len() || objects.len() != hand.len() {
         return Ok(None);
     }
-    let per_frame = hand.clone();
     let carry = smooth::carried(objects, range.clone(), CARRY_REACH_M, CARRY_REACH_RAD);
     let (s, e) = (*carry.start(), *carry.end());
     smooth::hold_grasp(hand, objects, range.clone(), s..=b, clamp)?;
@@ -283,10 +284,10 @@ fn held_grasp(
     });
     if closing {
         let share = smooth::closing_shares(range.clone(), s, ease);
-        smooth::release_held(hand, &per_frame, objects, range, &share, 0);
+        smooth::release_held(hand, per_frame, objects, range, &share, 0);
     } else {
         // Formed at rest: held from the segment's first frame, the average over it all.
-        *hand = per_frame;
+        hand.clone_from(per_frame);
         smooth::hold_grasp(hand, objects, range.clone(), range, clamp)?;
     }
     Ok(Some(HeldSpan {
